@@ -1,0 +1,85 @@
+//! Numbered experiments, one file each, named after the figure of the notes
+//! they reproduce (`06_1_…` → figs 6.1–6.2). Each file opens with what it
+//! reproduces, how to run it, what it costs and what it writes.
+//!
+//! Run one with `smokelab experiment <id>`; list them with
+//! `smokelab experiment --list`. Every experiment writes into `results/<id>/`
+//! by default: images, `data.csv` or `metrics.csv`, and `manifest.json`.
+
+#[path = "06_1_hot_cold_gridded.rs"]
+mod hot_cold_gridded;
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+
+use crate::error::InputError;
+
+/// How big a run to make.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Size {
+    /// Tiny, seconds: for the test suite.
+    Smoke,
+    /// Cheap default: a couple of minutes at most on 2 cores.
+    Default,
+    /// The notes' sizes.
+    Full,
+}
+
+/// Where and how an experiment runs.
+#[derive(Clone, Debug)]
+pub struct Context {
+    /// Output folder (created by the experiment after validating its input).
+    pub out: PathBuf,
+    /// Run size.
+    pub size: Size,
+    /// Show progress bars.
+    pub progress: bool,
+}
+
+/// A registered experiment.
+pub struct Experiment {
+    /// Id used on the command line, e.g. `06-1`.
+    pub id: &'static str,
+    /// The figures of the notes it reproduces.
+    pub reproduces: &'static str,
+    /// One line on what it shows.
+    pub title: &'static str,
+    /// Expected cost of the default run.
+    pub cost: &'static str,
+    /// Entry point.
+    pub run: fn(&Context) -> Result<()>,
+}
+
+/// Every experiment, in the notes' order.
+pub const ALL: &[Experiment] = &[hot_cold_gridded::EXPERIMENT];
+
+/// The ids of all experiments.
+pub fn ids() -> Vec<&'static str> {
+    ALL.iter().map(|e| e.id).collect()
+}
+
+/// The experiment with this id.
+pub fn find(id: &str) -> Result<&'static Experiment, InputError> {
+    ALL.iter().find(|e| e.id == id).ok_or_else(|| {
+        InputError::new(format!(
+            "unknown experiment id '{id}'; known ids: {}",
+            ids().join(", ")
+        ))
+    })
+}
+
+/// A table of the experiments for `--list`.
+pub fn listing() -> String {
+    let mut s = format!(
+        "{:<7} {:<14} {:<10} {}\n",
+        "id", "reproduces", "cost", "what"
+    );
+    for e in ALL {
+        s.push_str(&format!(
+            "{:<7} {:<14} {:<10} {}\n",
+            e.id, e.reproduces, e.cost, e.title
+        ));
+    }
+    s
+}

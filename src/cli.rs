@@ -1,0 +1,248 @@
+//! The `smokelab` command line (clap).
+//!
+//! `smokelab` with no arguments runs the hot/cold default into a new folder
+//! under `runs/`. Bad input is reported as one line naming the value and what
+//! is valid, with exit code 2, before anything is written.
+
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::{Args, Parser, Subcommand};
+
+use crate::advection::Backtrace;
+use crate::error::InputError;
+use crate::experiments;
+use crate::io;
+use crate::run::{self, RunOptions, SaveFrames};
+use crate::scenario::hot_cold::HotColdConfig;
+use crate::scenario::ScenarioKind;
+
+/// Navier–Stokes smoke with gridded, gridless and SELMA density.
+#[derive(Debug, Parser)]
+#[command(name = "smokelab", version, about)]
+pub struct Cli {
+    /// What to do (default: `run hot-cold`).
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run a scenario and write volumes, previews, metrics and a manifest.
+    Run(RunArgs),
+    /// Run a numbered experiment that reproduces a figure of the notes.
+    Experiment(ExperimentArgs),
+}
+
+/// `smokelab run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Scenario to run.
+    #[arg(value_enum, default_value = "hot-cold")]
+    pub scenario: ScenarioKind,
+    /// TOML file with scenario parameters; flags override it.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Cells per axis.
+    #[arg(long, allow_negative_numbers = true)]
+    pub res: Option<usize>,
+    /// Number of time steps (frames).
+    #[arg(long, allow_negative_numbers = true)]
+    pub frames: Option<usize>,
+    /// Time step Δt.
+    #[arg(long, allow_negative_numbers = true)]
+    pub dt: Option<f32>,
+    /// Kinematic viscosity ν.
+    #[arg(long, allow_negative_numbers = true)]
+    pub nu: Option<f32>,
+    /// Magnitude of gravity.
+    #[arg(long, allow_negative_numbers = true)]
+    pub gravity: Option<f32>,
+    /// Radius of the injection spheres.
+    #[arg(long, allow_negative_numbers = true)]
+    pub radius: Option<f32>,
+    /// Semi-Lagrangian backtrace.
+    #[arg(long, value_enum)]
+    pub backtrace: Option<Backtrace>,
+    /// Write volumes every K frames (0: metrics only).
+    #[arg(long, allow_negative_numbers = true)]
+    pub save_every: Option<usize>,
+    /// Random seed.
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Output folder (default: a new folder under `runs/`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl Default for RunArgs {
+    fn default() -> Self {
+        Self {
+            scenario: ScenarioKind::HotCold,
+            config: None,
+            res: None,
+            frames: None,
+            dt: None,
+            nu: None,
+            gravity: None,
+            radius: None,
+            backtrace: None,
+            save_every: None,
+            seed: None,
+            out: None,
+            threads: None,
+            quiet: false,
+        }
+    }
+}
+
+impl RunArgs {
+    /// The hot/cold configuration: defaults, then the TOML file, then flags.
+    pub fn hot_cold_config(&self) -> Result<HotColdConfig, InputError> {
+        let mut c = match &self.config {
+            Some(path) => HotColdConfig::from_toml_file(path)?,
+            None => HotColdConfig::default(),
+        };
+        macro_rules! take {
+            ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
+        }
+        take!(res, frames, dt, nu, gravity, radius, backtrace, save_every, seed);
+        c.validate()?;
+        Ok(c)
+    }
+}
+
+/// `smokelab experiment`.
+#[derive(Debug, Args)]
+pub struct ExperimentArgs {
+    /// Experiment id, e.g. `06-1` (see `--list`).
+    pub id: Option<String>,
+    /// List the experiments and what they reproduce.
+    #[arg(long)]
+    pub list: bool,
+    /// Output folder (default: `results/<id>/`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Run at the notes' full sizes instead of the cheap default.
+    #[arg(long)]
+    pub full: bool,
+    /// Tiny sizes that finish in seconds (used by the test suite).
+    #[arg(long, conflicts_with = "full")]
+    pub smoke: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Hide progress bars.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Set the number of rayon worker threads (once per process).
+fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
+    if let Some(n) = threads {
+        if n == 0 {
+            return Err(InputError::new("--threads is 0; it must be at least 1"));
+        }
+        // A second call (e.g. in tests) keeps the first pool; that is fine.
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global();
+    }
+    Ok(())
+}
+
+/// Run the parsed command line.
+pub fn execute(cli: Cli) -> Result<()> {
+    match cli.command {
+        None => run_scenario(&RunArgs::default()),
+        Some(Command::Run(args)) => run_scenario(&args),
+        Some(Command::Experiment(args)) => run_experiment(&args),
+    }
+}
+
+fn run_scenario(args: &RunArgs) -> Result<()> {
+    init_threads(args.threads)?;
+    match args.scenario {
+        ScenarioKind::HotCold => {
+            let config = args.hot_cold_config()?;
+            let out = args
+                .out
+                .clone()
+                .unwrap_or_else(|| default_run_dir("hot-cold"));
+            io::check_output_dir(&out)?;
+            let mut sim = config.build()?;
+            io::create_output_dir(&out)?;
+            let opts = RunOptions {
+                out: out.clone(),
+                frames: config.frames,
+                save: SaveFrames::Every(config.save_every),
+                progress: !args.quiet,
+            };
+            let summary = run::run(&mut sim, &opts, &config, config.seed)?;
+            println!(
+                "hot-cold: {} steps at {}³ in {:.1} s; wrote {}",
+                config.frames,
+                config.res,
+                summary.wall_seconds,
+                out.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+fn default_run_dir(name: &str) -> PathBuf {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    PathBuf::from("runs").join(format!("{name}-{secs}"))
+}
+
+fn run_experiment(args: &ExperimentArgs) -> Result<()> {
+    init_threads(args.threads)?;
+    if args.list {
+        println!("{}", experiments::listing());
+        return Ok(());
+    }
+    let Some(id) = &args.id else {
+        return Err(InputError::new(format!(
+            "give an experiment id or --list; known ids: {}",
+            experiments::ids().join(", ")
+        ))
+        .into());
+    };
+    let exp = experiments::find(id)?;
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("results").join(exp.id));
+    io::check_output_dir(&out)?;
+    let ctx = experiments::Context {
+        out: out.clone(),
+        size: if args.full {
+            experiments::Size::Full
+        } else if args.smoke {
+            experiments::Size::Smoke
+        } else {
+            experiments::Size::Default
+        },
+        progress: !args.quiet,
+    };
+    let start = std::time::Instant::now();
+    (exp.run)(&ctx)?;
+    println!(
+        "experiment {} ({}) finished in {:.1} s; wrote {}",
+        exp.id,
+        exp.reproduces,
+        start.elapsed().as_secs_f64(),
+        out.display()
+    );
+    Ok(())
+}

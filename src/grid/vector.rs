@@ -1,0 +1,183 @@
+//! Vector grid: three interleaved f32 components per cell centre.
+
+use glam::Vec3;
+use ndarray::Array4;
+use rayon::prelude::*;
+
+use super::{Stencil, Wrap};
+use crate::domain::Domain;
+use crate::field::VectorField;
+
+/// Vector samples on the cell centres of a [`Domain`], shape `(nz, ny, nx, 3)`
+/// with components `x, y, z` interleaved (the `.npy` layout smokelab writes).
+#[derive(Clone, Debug)]
+pub struct VectorGrid {
+    domain: Domain,
+    wrap: Wrap,
+    data: Array4<f32>,
+}
+
+impl VectorGrid {
+    /// A grid of zero vectors, periodic.
+    pub fn zeros(domain: Domain) -> Self {
+        let (nz, ny, nx) = domain.shape();
+        Self {
+            domain,
+            wrap: Wrap::Periodic,
+            data: Array4::zeros((nz, ny, nx, 3)),
+        }
+    }
+
+    /// Wrap an array of shape `(nz, ny, nx, 3)`.
+    ///
+    /// # Panics
+    /// If the array's shape is not the domain's.
+    pub fn from_array(domain: Domain, data: Array4<f32>) -> Self {
+        let (nz, ny, nx) = domain.shape();
+        assert_eq!(
+            data.dim(),
+            (nz, ny, nx, 3),
+            "array shape is not the domain's"
+        );
+        let data = data.as_standard_layout().into_owned();
+        Self {
+            domain,
+            wrap: Wrap::Periodic,
+            data,
+        }
+    }
+
+    /// `cachewrite`: sample a vector field at every cell centre, in parallel
+    /// batches of one z-slab.
+    pub fn from_field(domain: Domain, field: &dyn VectorField) -> Self {
+        let mut grid = Self::zeros(domain);
+        grid.write_field(field);
+        grid
+    }
+
+    /// Overwrite the samples with `field` at every cell centre.
+    pub fn write_field(&mut self, field: &dyn VectorField) {
+        let domain = self.domain;
+        let slab = domain.dims[0] * domain.dims[1];
+        self.as_vec3_mut()
+            .par_chunks_mut(slab)
+            .enumerate()
+            .for_each_init(Vec::new, |points, (k, out)| {
+                domain.slab_centers(k, points);
+                field.eval_batch(points, out);
+            });
+    }
+
+    /// The same grid with a different out-of-range rule.
+    pub fn with_wrap(mut self, wrap: Wrap) -> Self {
+        self.wrap = wrap;
+        self
+    }
+
+    /// The domain the samples live on.
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// Out-of-range rule used by interpolation.
+    pub fn wrap(&self) -> Wrap {
+        self.wrap
+    }
+
+    /// The samples.
+    pub fn data(&self) -> &Array4<f32> {
+        &self.data
+    }
+
+    /// The samples, mutable.
+    pub fn data_mut(&mut self) -> &mut Array4<f32> {
+        &mut self.data
+    }
+
+    /// Samples as a flat interleaved slice.
+    pub fn as_slice(&self) -> &[f32] {
+        self.data.as_slice().expect("grids are in standard layout")
+    }
+
+    /// Samples as a flat mutable interleaved slice.
+    pub fn as_slice_mut(&mut self) -> &mut [f32] {
+        self.data
+            .as_slice_mut()
+            .expect("grids are in standard layout")
+    }
+
+    /// Samples as one [`Vec3`] per cell, `[z][y][x]` order.
+    pub fn as_vec3(&self) -> &[Vec3] {
+        let s = self.as_slice();
+        // SAFETY: Vec3 is `#[repr(C)]` of three f32 with alignment 4, and the
+        // slice holds a whole number of triples.
+        unsafe { std::slice::from_raw_parts(s.as_ptr().cast::<Vec3>(), s.len() / 3) }
+    }
+
+    /// Samples as one mutable [`Vec3`] per cell.
+    pub fn as_vec3_mut(&mut self) -> &mut [Vec3] {
+        let s = self.as_slice_mut();
+        // SAFETY: as in `as_vec3`; the borrow is unique.
+        unsafe { std::slice::from_raw_parts_mut(s.as_mut_ptr().cast::<Vec3>(), s.len() / 3) }
+    }
+
+    /// Trilinear sample at continuous grid coordinates (cell centres at integers).
+    #[inline]
+    pub fn sample_grid_coords(&self, g: Vec3) -> Vec3 {
+        Stencil::new(g, self.domain.dims, self.wrap).apply_vec3(self.as_slice())
+    }
+
+    /// Largest speed |u| over the grid.
+    pub fn max_norm(&self) -> f32 {
+        self.as_vec3()
+            .par_iter()
+            .map(|v| v.length())
+            .reduce(|| 0.0, f32::max)
+    }
+
+    /// Root-mean-square speed.
+    pub fn rms_norm(&self) -> f32 {
+        let s: f64 = self
+            .as_vec3()
+            .par_iter()
+            .map(|v| v.length_squared() as f64)
+            .sum();
+        (s / self.domain.len() as f64).sqrt() as f32
+    }
+
+    /// Whether every component is finite.
+    pub fn is_finite(&self) -> bool {
+        self.as_slice().par_iter().all(|v| v.is_finite())
+    }
+}
+
+impl VectorField for VectorGrid {
+    fn eval(&self, p: Vec3) -> Vec3 {
+        self.sample_grid_coords(self.domain.grid_coords(p))
+    }
+
+    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
+        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
+        let data = self.as_slice();
+        for (o, &p) in out.iter_mut().zip(points) {
+            *o = Stencil::new(self.domain.grid_coords(p), self.domain.dims, self.wrap)
+                .apply_vec3(data);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::ops;
+
+    #[test]
+    fn constant_vector_field_round_trips() {
+        let d = Domain::cube(5, 1.0).unwrap();
+        let v = Vec3::new(1.0, -2.0, 0.5);
+        let g = VectorGrid::from_field(d, &*ops::constant_vector(v));
+        assert_eq!(g.data()[[4, 3, 2, 1]], -2.0);
+        assert!((g.eval(Vec3::new(0.13, 0.77, 0.5)) - v).length() < 1e-6);
+        assert!((g.max_norm() - v.length()).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,96 @@
+//! `manifest.json`: what ran, where, with what, and what it cost.
+
+use serde::Serialize;
+
+/// Facts about the machine and build a result came from.
+#[derive(Clone, Debug, Serialize)]
+pub struct Machine {
+    /// CPU model string from `/proc/cpuinfo`.
+    pub cpu: String,
+    /// Logical cores visible to the process.
+    pub cores: usize,
+    /// Rayon worker threads used.
+    pub threads: usize,
+    /// Operating system.
+    pub os: String,
+}
+
+impl Machine {
+    /// Read the current machine.
+    pub fn current() -> Self {
+        let cpu = std::fs::read_to_string("/proc/cpuinfo")
+            .ok()
+            .and_then(|s| {
+                s.lines()
+                    .find(|l| l.starts_with("model name"))
+                    .and_then(|l| l.split(':').nth(1))
+                    .map(|m| m.trim().to_string())
+            })
+            .unwrap_or_else(|| "unknown".into());
+        Self {
+            cpu,
+            cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            threads: rayon::current_num_threads(),
+            os: std::env::consts::OS.into(),
+        }
+    }
+}
+
+/// The git commit of the working tree, with `-dirty` if it has changes.
+pub fn git_commit() -> String {
+    let run = |args: &[&str]| {
+        std::process::Command::new("git")
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+    };
+    match run(&["rev-parse", "HEAD"]) {
+        Some(c) => match run(&["status", "--porcelain", "--untracked-files=no"]) {
+            Some(s) if !s.is_empty() => format!("{c}-dirty"),
+            _ => c,
+        },
+        None => "unknown".into(),
+    }
+}
+
+/// The manifest written beside every run's outputs.
+#[derive(Clone, Debug, Serialize)]
+pub struct Manifest<C: Serialize> {
+    /// smokelab version.
+    pub version: &'static str,
+    /// git commit (see [`git_commit`]).
+    pub commit: String,
+    /// Command line that produced the run.
+    pub command: String,
+    /// The resolved configuration.
+    pub config: C,
+    /// Random seed.
+    pub seed: u64,
+    /// Machine facts.
+    pub machine: Machine,
+    /// Wall time of the whole run in seconds.
+    pub wall_seconds: f64,
+    /// Peak resident memory in bytes (`VmHWM`), if known.
+    pub peak_memory_bytes: Option<u64>,
+    /// Anything else the run wants to record (per-stage totals, render stats…).
+    pub extra: serde_json::Value,
+}
+
+impl<C: Serialize> Manifest<C> {
+    /// A manifest for `config`, filled with the current machine and commit.
+    pub fn new(config: C, seed: u64, wall_seconds: f64, extra: serde_json::Value) -> Self {
+        Self {
+            version: env!("CARGO_PKG_VERSION"),
+            commit: git_commit(),
+            command: std::env::args().collect::<Vec<_>>().join(" "),
+            config,
+            seed,
+            machine: Machine::current(),
+            wall_seconds,
+            peak_memory_bytes: crate::timing::peak_rss_bytes(),
+            extra,
+        }
+    }
+}

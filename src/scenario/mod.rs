@@ -1,0 +1,13 @@
+//! Scenarios: initial state, sources, forces and parameters with defaults.
+
+pub mod hot_cold;
+
+use serde::{Deserialize, Serialize};
+
+/// The scenarios `smokelab run` knows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum ScenarioKind {
+    /// Hot gas rising from below, cold gas sinking from above (§6.1.1, figs 6.1–6.2).
+    HotCold,
+}

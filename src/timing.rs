@@ -1,0 +1,55 @@
+//! Per-stage wall-clock timers and the process's peak memory.
+
+use std::time::Instant;
+
+use serde::Serialize;
+
+/// Seconds spent in each stage of one time step.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct StageTimes {
+    /// Advection of densities and velocity.
+    pub advect: f64,
+    /// Sources and buoyancy.
+    pub force: f64,
+    /// FFT projection (and viscosity).
+    pub project: f64,
+    /// Writing volumes, previews and metrics.
+    pub output: f64,
+}
+
+impl StageTimes {
+    /// Sum over stages.
+    pub fn total(&self) -> f64 {
+        self.advect + self.force + self.project + self.output
+    }
+}
+
+/// Run `f`, add its wall time in seconds to `slot`, return its result.
+pub fn timed<T>(slot: &mut f64, f: impl FnOnce() -> T) -> T {
+    let t = Instant::now();
+    let r = f();
+    *slot += t.elapsed().as_secs_f64();
+    r
+}
+
+/// Peak resident set size of this process in bytes (`VmHWM`), if the OS says.
+pub fn peak_rss_bytes() -> Option<u64> {
+    proc_status_kib("VmHWM:").map(|k| k * 1024)
+}
+
+/// Memory the OS reports as available for new allocations, in bytes.
+pub fn available_memory_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = s.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    line.split_whitespace()
+        .nth(1)?
+        .parse::<u64>()
+        .ok()
+        .map(|k| k * 1024)
+}
+
+fn proc_status_kib(key: &str) -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with(key))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
