@@ -10,14 +10,15 @@
 //!
 //! [`Simulation::step`] is exactly those four lines: [`Simulation::advect_densities`],
 //! [`Simulation::advect_velocity`], [`Simulation::add_buoyancy`] and
-//! [`Simulation::project`]. Every buffer is allocated once in
-//! [`Simulation::new`]; a step allocates nothing but the projection's
-//! per-task scratch.
+//! [`Simulation::project`]. The departure points of the step are traced once
+//! (all quantities move with the same velocity) and shared by every
+//! interpolation. Every buffer is allocated once in [`Simulation::new`]; a
+//! step allocates nothing but the projection's per-task scratch.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::advection::{self, Backtrace};
+use crate::advection::{self, Backtrace, Departures};
 use crate::domain::Domain;
 use crate::field::Scalar;
 use crate::grid::{ScalarGrid, VectorGrid};
@@ -82,6 +83,7 @@ pub struct Simulation {
     /// Wall time per stage of the last step.
     pub times: StageTimes,
     velocity_scratch: VectorGrid,
+    departures: Departures,
     projection: Projection,
 }
 
@@ -95,6 +97,7 @@ impl Simulation {
             step_index: 0,
             times: StageTimes::default(),
             velocity_scratch: VectorGrid::zeros(domain),
+            departures: Departures::new(domain),
             projection: Projection::new(domain),
         }
     }
@@ -112,6 +115,7 @@ impl Simulation {
     /// One time step: eqs 6.4, 6.5 and the projection (6.3).
     pub fn step(&mut self) {
         let mut times = StageTimes::default();
+        timed(&mut times.advect, || self.trace_departures());
         timed(&mut times.advect, || self.advect_densities());
         timed(&mut times.advect, || self.advect_velocity());
         timed(&mut times.force, || self.add_buoyancy());
@@ -120,11 +124,17 @@ impl Simulation {
         self.times = times;
     }
 
+    /// The departure points `x − ∫u dt` of every cell for this step.
+    pub fn trace_departures(&mut self) {
+        let p = self.params;
+        self.departures.trace(&self.velocity, p.dt, p.backtrace);
+    }
+
     /// Eq 6.4: `ρ ← ρ(x − uΔt) + S Δt` for every gas.
     pub fn advect_densities(&mut self) {
-        let (vel, p) = (&self.velocity, self.params);
+        let (dep, p) = (&self.departures, self.params);
         for gas in &mut self.gases {
-            advection::advect_scalar(&gas.density, vel, p.dt, p.backtrace, &mut gas.scratch);
+            advection::interpolate_scalar(&gas.density, dep, &mut gas.scratch);
             std::mem::swap(&mut gas.density, &mut gas.scratch);
             gas.density
                 .as_slice_mut()
@@ -136,14 +146,7 @@ impl Simulation {
 
     /// Eq 6.5, first term: `u ← u(x − uΔt)`.
     pub fn advect_velocity(&mut self) {
-        let p = self.params;
-        advection::advect_vector(
-            &self.velocity,
-            &self.velocity,
-            p.dt,
-            p.backtrace,
-            &mut self.velocity_scratch,
-        );
+        advection::interpolate_vector(&self.velocity, &self.departures, &mut self.velocity_scratch);
         std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
     }
 

@@ -2,18 +2,84 @@
 //!
 //! For every cell centre `x` the departure point `x_d` is traced backwards
 //! through the velocity grid with the chosen [`Backtrace`], and the advected
-//! quantity is interpolated trilinearly there: `q_new(x) = q(x_d)`. Work is
-//! done in continuous grid coordinates (cell centres at integers), so a
-//! velocity `u` moves a point by `u Δt / Δx` cells. The first velocity sample
-//! of every backtrace is the cell's own value, read without interpolation.
+//! quantity is interpolated trilinearly there: `q_new(x) = q(x_d)`.
 //!
-//! Parallel over z-slabs with rayon; no allocation.
+//! All quantities of one step (every density and the velocity itself) move
+//! with the same velocity, so the departure points are traced once per step
+//! into [`Departures`] and reused by every [`interpolate_scalar`] /
+//! [`interpolate_vector`]. Work is done in continuous grid coordinates (cell
+//! centres at integers): a velocity `u` moves a point by `u Δt / Δx` cells,
+//! and the first velocity sample of every backtrace is the cell's own value,
+//! read without interpolation.
+//!
+//! Parallel over z-slabs with rayon; no allocation after [`Departures::new`].
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::Backtrace;
+use crate::domain::Domain;
 use crate::grid::{ScalarGrid, Stencil, VectorGrid};
+
+/// The departure point of every cell centre for one step, in grid coordinates.
+#[derive(Clone, Debug)]
+pub struct Departures {
+    domain: Domain,
+    points: Vec<Vec3>,
+}
+
+impl Departures {
+    /// Storage for the departure points of `domain` (initially the cell centres).
+    pub fn new(domain: Domain) -> Self {
+        let [nx, ny, nz] = domain.dims;
+        let points = (0..nz)
+            .flat_map(|k| {
+                (0..ny).flat_map(move |j| {
+                    (0..nx).map(move |i| Vec3::new(i as f32, j as f32, k as f32))
+                })
+            })
+            .collect();
+        Self { domain, points }
+    }
+
+    /// The domain whose cells these are.
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// Departure points, `[z][y][x]` order, in grid coordinates.
+    pub fn points(&self) -> &[Vec3] {
+        &self.points
+    }
+
+    /// Trace every cell centre back through `vel` over `dt`.
+    ///
+    /// # Panics
+    /// If `vel` is on another domain.
+    pub fn trace(&mut self, vel: &VectorGrid, dt: f32, backtrace: Backtrace) {
+        assert_eq!(
+            vel.domain(),
+            &self.domain,
+            "departures: velocity on another domain"
+        );
+        let dt_cells = dt / self.domain.cell;
+        let [nx, ny, _] = self.domain.dims;
+        let u = vel.as_vec3();
+        self.points
+            .par_chunks_mut(nx * ny)
+            .zip(u.par_chunks(nx * ny))
+            .enumerate()
+            .for_each(|(k, (out, u0))| {
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let n = j * nx + i;
+                        let c = Vec3::new(i as f32, j as f32, k as f32);
+                        out[n] = departure(vel, c, u0[n], dt_cells, backtrace);
+                    }
+                }
+            });
+    }
+}
 
 /// Departure point, in grid coordinates, of the cell centre `c` whose own
 /// velocity is `u0`, after `dt_cells = Δt/Δx`.
@@ -34,11 +100,63 @@ fn departure(vel: &VectorGrid, c: Vec3, u0: Vec3, dt_cells: f32, backtrace: Back
     }
 }
 
-/// `dst = src(x − ∫u dt)`: advect a scalar grid by `vel` over `dt` (eq 6.4
-/// without the source).
+/// `dst(x) = src(x_d)`: interpolate a scalar grid at the departure points.
 ///
 /// # Panics
-/// If the three grids do not share one domain.
+/// If the grids are not on the departures' domain.
+pub fn interpolate_scalar(src: &ScalarGrid, dep: &Departures, dst: &mut ScalarGrid) {
+    let d = dep.domain;
+    assert_eq!(
+        src.domain(),
+        &d,
+        "interpolate_scalar: source on another domain"
+    );
+    assert_eq!(
+        dst.domain(),
+        &d,
+        "interpolate_scalar: target on another domain"
+    );
+    let (data, wrap) = (src.as_slice(), src.wrap());
+    dst.as_slice_mut()
+        .par_chunks_mut(4096)
+        .zip(dep.points.par_chunks(4096))
+        .for_each(|(out, pts)| {
+            for (o, &g) in out.iter_mut().zip(pts) {
+                *o = Stencil::new(g, d.dims, wrap).apply(data);
+            }
+        });
+}
+
+/// `dst(x) = src(x_d)` for a vector grid.
+///
+/// # Panics
+/// If the grids are not on the departures' domain.
+pub fn interpolate_vector(src: &VectorGrid, dep: &Departures, dst: &mut VectorGrid) {
+    let d = dep.domain;
+    assert_eq!(
+        src.domain(),
+        &d,
+        "interpolate_vector: source on another domain"
+    );
+    assert_eq!(
+        dst.domain(),
+        &d,
+        "interpolate_vector: target on another domain"
+    );
+    let (data, wrap) = (src.as_slice(), src.wrap());
+    dst.as_vec3_mut()
+        .par_chunks_mut(4096)
+        .zip(dep.points.par_chunks(4096))
+        .for_each(|(out, pts)| {
+            for (o, &g) in out.iter_mut().zip(pts) {
+                *o = Stencil::new(g, d.dims, wrap).apply_vec3(data);
+            }
+        });
+}
+
+/// `dst = src(x − ∫u dt)`: advect a scalar grid by `vel` over `dt` (eq 6.4
+/// without the source). Allocates its departure points; time steps that move
+/// several quantities use [`Departures`] directly.
 pub fn advect_scalar(
     src: &ScalarGrid,
     vel: &VectorGrid,
@@ -46,40 +164,12 @@ pub fn advect_scalar(
     backtrace: Backtrace,
     dst: &mut ScalarGrid,
 ) {
-    let d = *vel.domain();
-    assert_eq!(
-        src.domain(),
-        &d,
-        "advect_scalar: source and velocity domains differ"
-    );
-    assert_eq!(
-        dst.domain(),
-        &d,
-        "advect_scalar: target and velocity domains differ"
-    );
-    let dt_cells = dt / d.cell;
-    let [nx, ny, _] = d.dims;
-    let (data, wrap, u) = (src.as_slice(), src.wrap(), vel.as_vec3());
-    dst.as_slice_mut()
-        .par_chunks_mut(nx * ny)
-        .enumerate()
-        .for_each(|(k, slab)| {
-            for j in 0..ny {
-                for i in 0..nx {
-                    let n = j * nx + i;
-                    let c = Vec3::new(i as f32, j as f32, k as f32);
-                    let g = departure(vel, c, u[k * nx * ny + n], dt_cells, backtrace);
-                    slab[n] = Stencil::new(g, d.dims, wrap).apply(data);
-                }
-            }
-        });
+    let mut dep = Departures::new(*vel.domain());
+    dep.trace(vel, dt, backtrace);
+    interpolate_scalar(src, &dep, dst);
 }
 
-/// `dst = src(x − ∫u dt)` for a vector grid (eq 6.5 without the force);
-/// `src` may be `vel` itself (self-advection).
-///
-/// # Panics
-/// If the three grids do not share one domain.
+/// `dst = src(x − ∫u dt)` for a vector grid (eq 6.5 without the force).
 pub fn advect_vector(
     src: &VectorGrid,
     vel: &VectorGrid,
@@ -87,31 +177,7 @@ pub fn advect_vector(
     backtrace: Backtrace,
     dst: &mut VectorGrid,
 ) {
-    let d = *vel.domain();
-    assert_eq!(
-        src.domain(),
-        &d,
-        "advect_vector: source and velocity domains differ"
-    );
-    assert_eq!(
-        dst.domain(),
-        &d,
-        "advect_vector: target and velocity domains differ"
-    );
-    let dt_cells = dt / d.cell;
-    let [nx, ny, _] = d.dims;
-    let (data, wrap, u) = (src.as_slice(), src.wrap(), vel.as_vec3());
-    dst.as_vec3_mut()
-        .par_chunks_mut(nx * ny)
-        .enumerate()
-        .for_each(|(k, slab)| {
-            for j in 0..ny {
-                for i in 0..nx {
-                    let n = j * nx + i;
-                    let c = Vec3::new(i as f32, j as f32, k as f32);
-                    let g = departure(vel, c, u[k * nx * ny + n], dt_cells, backtrace);
-                    slab[n] = Stencil::new(g, d.dims, wrap).apply_vec3(data);
-                }
-            }
-        });
+    let mut dep = Departures::new(*vel.domain());
+    dep.trace(vel, dt, backtrace);
+    interpolate_vector(src, &dep, dst);
 }

@@ -33,7 +33,16 @@ fn axis(g: f32, n: usize, wrap: Wrap) -> (usize, usize, f32) {
         Wrap::Periodic => {
             let f = g.floor();
             let t = g - f;
-            let i0 = (f as i64).rem_euclid(n as i64) as usize;
+            let (fi, ni) = (f as i64, n as i64);
+            // Departure points are rarely more than one period away: avoid the
+            // integer division of `rem_euclid` on the common path.
+            let i0 = if (0..ni).contains(&fi) {
+                fi
+            } else if (-ni..0).contains(&fi) {
+                fi + ni
+            } else {
+                fi.rem_euclid(ni)
+            } as usize;
             let i1 = if i0 + 1 == n { 0 } else { i0 + 1 };
             (i0, i1, t)
         }
