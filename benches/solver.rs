@@ -3,7 +3,9 @@
 //! timed region. Run: `cargo bench --bench solver`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use smokelab::advection::{interpolate_scalar, interpolate_vector, Backtrace, Departures};
+use smokelab::advection::{
+    advect_fused, interpolate_scalar, interpolate_vector, Backtrace, Departures,
+};
 use smokelab::grid::ScalarGrid;
 use smokelab::projection::Projection;
 use smokelab::scenario::hot_cold::HotColdConfig;
@@ -45,6 +47,20 @@ fn benches(c: &mut Criterion) {
         let mut u = sim.velocity.clone();
         g.bench_function(BenchmarkId::new("sl_interpolate_vector", res), |b| {
             b.iter(|| interpolate_vector(&sim.velocity, &dep, &mut u))
+        });
+        let mut rho2 = rho.clone();
+        g.bench_function(BenchmarkId::new("sl_fused_two_gases", res), |b| {
+            b.iter(|| {
+                let srcs = [&sim.gases[0].density, &sim.gases[1].density];
+                advect_fused(
+                    &sim.velocity,
+                    0.05,
+                    Backtrace::Rk2,
+                    &srcs,
+                    &mut [&mut rho, &mut rho2],
+                    &mut u,
+                )
+            })
         });
     }
     g.finish();
