@@ -17,6 +17,7 @@
 //! - [`simulation`] — the time step;
 //! - [`scenario`] — hot/cold (§6.1.1);
 //! - [`io`] — atomic `.npy`/PNG/JSON/CSV writers, manifests, previews;
+//! - [`render`] — the volume ray marcher (appendix A), EXR/PNG output;
 //! - [`run`] — driving a simulation through its frames;
 //! - [`experiments`] — numbered reproductions of the notes' figures;
 //! - [`cli`] — the `smokelab` command line.
@@ -43,6 +44,7 @@ pub mod grid;
 pub mod io;
 pub mod metrics;
 pub mod projection;
+pub mod render;
 pub mod run;
 pub mod scenario;
 pub mod simulation;
