@@ -14,6 +14,7 @@
 //! - [`projection`] — FFT divergence-free projection with exact viscosity;
 //! - [`metrics`] — divergence, mirror symmetry;
 //! - [`timing`] — stage timers, peak memory;
+//! - [`plot`] — line plots (PNG + SVG) for the experiments;
 //! - [`simulation`] — the time step;
 //! - [`scenario`] — hot/cold (§6.1.1);
 //! - [`io`] — atomic `.npy`/PNG/JSON/CSV writers, manifests, previews;
@@ -43,6 +44,7 @@ pub mod field;
 pub mod grid;
 pub mod io;
 pub mod metrics;
+pub mod plot;
 pub mod projection;
 pub mod render;
 pub mod run;

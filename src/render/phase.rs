@@ -101,7 +101,7 @@ impl Phase {
             }
             Phase::FournierForand { n, mu } => {
                 let s2 = ((1.0 - c) / 2.0).max(FF_MIN_SIN2);
-                fournier_forand(n as f64, mu as f64, s2, c)
+                ff_terms(n as f64, mu as f64, s2, c)
             }
         }
     }
@@ -112,10 +112,7 @@ impl Phase {
     /// integrable, and the cone θ < 10⁻⁶ still holds ~0.1 % of its weight.
     pub fn eval_angle_f64(&self, theta: f64) -> f64 {
         match *self {
-            Phase::FournierForand { n, mu } => {
-                let s = (0.5 * theta).sin();
-                fournier_forand(n as f64, mu as f64, s * s, theta.cos())
-            }
+            Phase::FournierForand { n, mu } => fournier_forand(n as f64, mu as f64, theta),
             _ => self.eval_f64(theta.cos()),
         }
     }
@@ -134,6 +131,21 @@ impl Phase {
         }
     }
 
+    /// `∫ P dΩ = 2π ∫₀^π P(θ) sin θ dθ`, by the midpoint rule in `t = √θ`
+    /// with `steps` intervals (the substitution makes Fournier–Forand's
+    /// forward singularity bounded). Should be 1.
+    pub fn sphere_integral(&self, steps: usize) -> f64 {
+        let h = PI.sqrt() / steps as f64;
+        (0..steps)
+            .map(|i| {
+                let t = (i as f64 + 0.5) * h;
+                let th = t * t;
+                2.0 * PI * self.eval_angle_f64(th) * th.sin() * 2.0 * t
+            })
+            .sum::<f64>()
+            * h
+    }
+
     /// `4π P(cos θ)`: 1 for the isotropic function, the notes' `P = 1`.
     #[inline]
     pub fn relative(&self, cos_theta: f32) -> f32 {
@@ -141,8 +153,16 @@ impl Phase {
     }
 }
 
+/// The Fournier–Forand formula (eqs A.9–A.12) at angle `θ` for any `n`,
+/// `μ`, without the range checks of [`Phase::fournier_forand`] — experiment
+/// A-2 uses it to show what the caption's literal μ values give.
+pub fn fournier_forand(n: f64, mu: f64, theta: f64) -> f64 {
+    let s = (0.5 * theta).sin();
+    ff_terms(n, mu, s * s, theta.cos())
+}
+
 /// Eqs A.9–A.12 at `s2 = sin²(θ/2)`, `c = cos θ`.
-fn fournier_forand(n: f64, mu: f64, s2: f64, c: f64) -> f64 {
+fn ff_terms(n: f64, mu: f64, s2: f64, c: f64) -> f64 {
     let nu = (3.0 - mu) / 2.0; // A.12
     let d180 = 4.0 / (3.0 * (n - 1.0) * (n - 1.0)); // A.11
     let d = d180 * s2; // A.10
@@ -158,21 +178,6 @@ fn fournier_forand(n: f64, mu: f64, s2: f64, c: f64) -> f64 {
 mod tests {
     use super::*;
 
-    /// `2π ∫₀^π P(cos θ) sin θ dθ` with θ = t² (which makes the FF
-    /// singularity at θ = 0 bounded), composite midpoint rule in t.
-    fn sphere_integral(p: &Phase) -> f64 {
-        let n = 20_000;
-        let h = PI.sqrt() / n as f64;
-        (0..n)
-            .map(|i| {
-                let t = (i as f64 + 0.5) * h;
-                let th = t * t;
-                2.0 * PI * p.eval_angle_f64(th) * th.sin() * 2.0 * t
-            })
-            .sum::<f64>()
-            * h
-    }
-
     #[test]
     fn every_phase_function_integrates_to_one() {
         let mut all = vec![Phase::Isotropic];
@@ -184,7 +189,7 @@ mod tests {
             all.push(Phase::fournier_forand(1.15, mu).unwrap());
         }
         for p in all {
-            let i = sphere_integral(&p);
+            let i = p.sphere_integral(20_000);
             assert!((i - 1.0).abs() < 1e-3, "{p:?} integrates to {i}");
         }
     }
