@@ -102,12 +102,15 @@ fn plot_study(ctx: &Context, s: &Study, observed: f64) -> Result<()> {
     let points: Vec<(f64, f64)> = s.h.iter().copied().zip(s.error.iter().copied()).collect();
     let (h_fine, e_fine) = *points.last().expect("studies have levels");
     let guide: Vec<(f64, f64)> = s.h.iter().map(|&h| (h, e_fine * (h / h_fine).powf(s.expected))).collect();
+    let all = points.iter().chain(&guide).map(|p| p.1);
+    let (lo, hi) = all.fold((f64::MAX, f64::MIN), |(lo, hi), e| (lo.min(e), hi.max(e)));
     Plot::new(s.name.clone(), "h", "rms error")
         .log_x()
         .log_y()
+        .y_range(lo / 1.5, hi * 1.5)
         .series(Series::line("measured", points).styled(Style::LineMarkers))
         .series(Series::line(format!("slope {}", s.expected), guide).styled(Style::Dashed))
-        .annotate(Annotation::at_fraction(0.05, 0.92, format!("observed order {observed:.2}")))
+        .annotate(Annotation::at_fraction(0.05, 0.08, format!("observed order {observed:.2}")))
         .write(&ctx.out.join(&s.name))?;
     Ok(())
 }

@@ -10,6 +10,8 @@
 mod fournier_forand;
 #[path = "A_1_henyey_greenstein.rs"]
 mod henyey_greenstein;
+#[path = "C_1_convergence.rs"]
+mod convergence;
 #[path = "06_1_hot_cold_gridded.rs"]
 mod hot_cold_gridded;
 
@@ -62,6 +64,7 @@ pub const ALL: &[Experiment] = &[
     hot_cold_gridded::EXPERIMENT,
     henyey_greenstein::EXPERIMENT,
     fournier_forand::EXPERIMENT,
+    convergence::EXPERIMENT,
 ];
 
 /// The ids of all experiments.
