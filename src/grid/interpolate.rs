@@ -31,18 +31,19 @@ pub struct Stencil {
 fn axis(g: f32, n: usize, wrap: Wrap) -> (usize, usize, f32) {
     match wrap {
         Wrap::Periodic => {
-            let f = g.floor();
-            let t = g - f;
-            let i0 = (f as i64).rem_euclid(n as i64) as usize;
+            // floor without a libm call (x86-64 baseline has no roundss).
+            let f = g as i64 - i64::from(g < (g as i64) as f32);
+            let t = g - f as f32;
+            let i0 = f.rem_euclid(n as i64) as usize;
             let i1 = if i0 + 1 == n { 0 } else { i0 + 1 };
             (i0, i1, t)
         }
         Wrap::Clamped => {
             let g = g.clamp(0.0, (n - 1) as f32);
-            let f = g.floor();
-            let i0 = f as usize;
+            // g ≥ 0, so truncation is floor.
+            let i0 = g as usize;
             let i1 = (i0 + 1).min(n - 1);
-            (i0, i1, g - f)
+            (i0, i1, g - i0 as f32)
         }
     }
 }

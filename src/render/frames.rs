@@ -92,21 +92,7 @@ impl FrameRender {
     /// Render the gases of `sim` into `out/render_NNNN.{exr,png}`.
     pub fn render_frame(&self, sim: &Simulation, out: &Path, frame: usize) -> Result<FrameRecord> {
         let domain = *sim.domain();
-        let volumes = sim
-            .gases
-            .iter()
-            .map(|g| {
-                let color = if g.lift >= 0.0 { look::HOT } else { look::COLD };
-                let density: Scalar = Arc::new(g.density.clone());
-                look::smoke(&g.name, density, color, look::KAPPA, look::GLOW)
-            })
-            .collect();
-        let scene = Scene {
-            bounds: domain,
-            volumes,
-            lights: vec![look::key_light(&domain)],
-            phase: Phase::Isotropic,
-        };
+        let scene = simulation_scene(sim);
         let settings = RenderSettings {
             step: self.step,
             ..RenderSettings::new(Camera::framing(&domain, self.image.0, self.image.1, 0.9))
@@ -122,6 +108,28 @@ impl FrameRender {
             exr,
             stats: r.stats,
         })
+    }
+}
+
+/// The default scene of a simulation frame: every gas as smoke in the
+/// default look (lift ≥ 0 hot red, else cold blue), one key light,
+/// isotropic scattering, inside the simulation box.
+pub fn simulation_scene(sim: &Simulation) -> Scene {
+    let domain = *sim.domain();
+    let volumes = sim
+        .gases
+        .iter()
+        .map(|g| {
+            let color = if g.lift >= 0.0 { look::HOT } else { look::COLD };
+            let density: Scalar = Arc::new(g.density.clone());
+            look::smoke(&g.name, density, color, look::KAPPA, look::GLOW)
+        })
+        .collect();
+    Scene {
+        bounds: domain,
+        volumes,
+        lights: vec![look::key_light(&domain)],
+        phase: Phase::Isotropic,
     }
 }
 
