@@ -25,6 +25,7 @@ use crate::scenario::hot_cold::HotColdConfig;
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
     id: "06-1",
+    folder: "06-1",
     reproduces: "figs 6.1, 6.2",
     title: "hot/cold buoyant gases, all gridded, 50³",
     cost: "~15 s",

@@ -45,6 +45,8 @@ pub struct Context {
 pub struct Experiment {
     /// Id used on the command line, e.g. `06-1`.
     pub id: &'static str,
+    /// Folder under `results/` it writes to by default (usually the id).
+    pub folder: &'static str,
     /// The figures of the notes it reproduces.
     pub reproduces: &'static str,
     /// One line on what it shows.

@@ -246,7 +246,7 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     let out = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from("results").join(exp.id));
+        .unwrap_or_else(|| PathBuf::from("results").join(exp.folder));
     io::check_output_dir(&out)?;
     let ctx = experiments::Context {
         out: out.clone(),

@@ -13,6 +13,7 @@
 //! - [`advection`] — semi-Lagrangian (eqs 6.4–6.5);
 //! - [`projection`] — FFT divergence-free projection with exact viscosity;
 //! - [`metrics`] — divergence, mirror symmetry;
+//! - [`convergence`] — observed order of accuracy for convergence tests;
 //! - [`timing`] — stage timers, peak memory;
 //! - [`plot`] — line plots (PNG + SVG) for the experiments;
 //! - [`simulation`] — the time step;
@@ -36,6 +37,7 @@
 
 pub mod advection;
 pub mod cli;
+pub mod convergence;
 pub mod domain;
 pub mod error;
 #[path = "../experiments/mod.rs"]

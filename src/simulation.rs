@@ -8,11 +8,12 @@
 //! velocity = fftdivfree(velocity, region);                      // eq 6.3
 //! ```
 //!
-//! [`Simulation::step`] is exactly those four lines: [`Simulation::advect_densities`],
-//! [`Simulation::advect_velocity`], [`Simulation::add_buoyancy`] and
-//! [`Simulation::project`]. Every buffer is allocated once in
-//! [`Simulation::new`]; a step allocates nothing but the projection's
-//! per-task scratch.
+//! [`Simulation::step`] is those lines in four verbs: [`Simulation::advect`]
+//! (every `advect(…, velocity, dt)` above, in one sweep that traces each
+//! departure point once), [`Simulation::inject_sources`],
+//! [`Simulation::add_buoyancy`] and [`Simulation::project`]. The densities
+//! are advected by the velocity of the start of the step, as in the script.
+//! Every buffer is allocated once in [`Simulation::new`].
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -112,39 +113,47 @@ impl Simulation {
     /// One time step: eqs 6.4, 6.5 and the projection (6.3).
     pub fn step(&mut self) {
         let mut times = StageTimes::default();
-        timed(&mut times.advect, || self.advect_densities());
-        timed(&mut times.advect, || self.advect_velocity());
+        timed(&mut times.advect, || self.advect());
+        timed(&mut times.force, || self.inject_sources());
         timed(&mut times.force, || self.add_buoyancy());
         timed(&mut times.project, || self.project());
         self.step_index += 1;
         self.times = times;
     }
 
-    /// Eq 6.4: `ρ ← ρ(x − uΔt) + S Δt` for every gas.
-    pub fn advect_densities(&mut self) {
-        let (vel, p) = (&self.velocity, self.params);
+    /// Eqs 6.4–6.5, transport: `ρ ← ρ(x − uΔt)` for every gas and
+    /// `u ← u(x − uΔt)`, sharing one backtrace per cell.
+    pub fn advect(&mut self) {
+        let p = self.params;
+        let (srcs, mut dsts): (Vec<&ScalarGrid>, Vec<&mut ScalarGrid>) = self
+            .gases
+            .iter_mut()
+            .map(|g| (&g.density, &mut g.scratch))
+            .unzip();
+        advection::advect_fused(
+            &self.velocity,
+            p.dt,
+            p.backtrace,
+            &srcs,
+            &mut dsts,
+            &mut self.velocity_scratch,
+        );
+        std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
         for gas in &mut self.gases {
-            advection::advect_scalar(&gas.density, vel, p.dt, p.backtrace, &mut gas.scratch);
             std::mem::swap(&mut gas.density, &mut gas.scratch);
+        }
+    }
+
+    /// Eq 6.4, source: `ρ += S Δt` (the notes' `inject(point, dt)`).
+    pub fn inject_sources(&mut self) {
+        let dt = self.params.dt;
+        for gas in &mut self.gases {
             gas.density
                 .as_slice_mut()
                 .par_iter_mut()
                 .zip(gas.source.as_slice().par_iter())
-                .for_each(|(rho, s)| *rho += s * p.dt);
+                .for_each(|(rho, s)| *rho += s * dt);
         }
-    }
-
-    /// Eq 6.5, first term: `u ← u(x − uΔt)`.
-    pub fn advect_velocity(&mut self) {
-        let p = self.params;
-        advection::advect_vector(
-            &self.velocity,
-            &self.velocity,
-            p.dt,
-            p.backtrace,
-            &mut self.velocity_scratch,
-        );
-        std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
     }
 
     /// Eq 6.5, force: `u += −Δt g⃗ Σ lift·ρ` — with hot lift +1 and cold −1

@@ -9,7 +9,9 @@ pub mod semi_lagrangian;
 
 use serde::{Deserialize, Serialize};
 
-pub use semi_lagrangian::{advect_scalar, advect_vector};
+pub use semi_lagrangian::{
+    advect_fused, advect_scalar, advect_vector, interpolate_scalar, interpolate_vector, Departures,
+};
 
 /// How the departure point `x − ∫u dt` of a semi-Lagrangian step is traced.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
