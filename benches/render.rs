@@ -10,9 +10,8 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use smokelab::render::camera::Camera;
 use smokelab::render::frames::simulation_scene;
-use smokelab::render::{render, RenderSettings};
+use smokelab::render::{look, render, RenderSettings};
 use smokelab::scenario::hot_cold::HotColdConfig;
 
 fn bench_render(c: &mut Criterion) {
@@ -32,7 +31,7 @@ fn bench_render(c: &mut Criterion) {
     for (name, step) in [("step_cell", cell), ("step_cell_over_10", cell / 10.0)] {
         let settings = RenderSettings {
             step: Some(step),
-            ..RenderSettings::new(Camera::framing(sim.domain(), 256, 256, 0.9))
+            ..RenderSettings::new(look::camera(sim.domain(), 256, 256))
         };
         let probe = render(&scene, &settings).expect("valid render");
         group.throughput(Throughput::Elements(probe.stats.samples));

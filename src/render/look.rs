@@ -10,6 +10,7 @@
 
 use glam::Vec3;
 
+use super::camera::Camera;
 use super::lights::PointLight;
 use super::Volume;
 use crate::domain::Domain;
@@ -27,6 +28,14 @@ pub const HOT: Vec3 = Vec3::new(0.88, 0.06, 0.02);
 pub const COLD: Vec3 = Vec3::new(0.03, 0.15, 0.9);
 /// Display colour of a buoyant gas in a box (fig 6.6).
 pub const GREEN: Vec3 = Vec3::new(0.08, 0.7, 0.12);
+
+/// Fraction of the image the box's corners fill in the default framing.
+pub const FILL: f32 = 0.9;
+
+/// The default camera: three-quarter view framing the whole box.
+pub fn camera(bounds: &Domain, width: u32, height: u32) -> Camera {
+    Camera::framing(bounds, width, height, FILL)
+}
 
 /// Default colours of the i-th volume when none is given: hot, cold, green,
 /// then white.
