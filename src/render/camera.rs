@@ -42,7 +42,7 @@ pub struct RayGen {
 /// Default viewing direction (from the box centre towards the eye): in
 /// front of the box (+z), a little to the right and above, so a TD sees the
 /// volume in three-quarter view with its top face foreshortened.
-const DEFAULT_VIEW: Vec3 = Vec3::new(0.35, 0.3, 1.0);
+pub const DEFAULT_VIEW: Vec3 = Vec3::new(0.35, 0.3, 1.0);
 
 impl Camera {
     /// A camera that frames `domain` with a 30° vertical fov; see

@@ -51,10 +51,10 @@ impl PointLight {
 
 /// March step through the extinction grid, in cells (midpoint rule on the
 /// trilinear interpolant of σ).
-const SHADOW_STEP_CELLS: f32 = 1.0;
+pub const SHADOW_STEP_CELLS: f32 = 1.0;
 
 /// Optical depth past which the march toward a light stops: `T < 10⁻⁵`.
-const SHADOW_MAX_DEPTH: f32 = 11.5;
+pub const SHADOW_MAX_DEPTH: f32 = 11.5;
 
 /// One light with its transmissivity `T^L` sampled on the render grid.
 pub struct LitLight {
