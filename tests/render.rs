@@ -431,3 +431,54 @@ fn render_command_rejects_bad_input_with_exit_2_and_writes_nothing() {
         assert!(!Path::new(&out).exists(), "{what}: wrote {out}");
     }
 }
+
+#[test]
+fn run_with_render_writes_render_frames_and_rejects_bad_render_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let o = smokelab(&[
+        "run",
+        "hot-cold",
+        "--res",
+        "8",
+        "--frames",
+        "4",
+        "--save-every",
+        "2",
+        "--render",
+        "--render-every",
+        "4",
+        "--image",
+        "24x16",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("render_0004.png").is_file() && out.join("render_0004.exr").is_file());
+    assert!(
+        !out.join("render_0002.png").exists(),
+        "only every 4th frame is rendered"
+    );
+    let png = image::open(out.join("render_0004.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (24, 16));
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["extra"]["renders"][0]["frame"], 4);
+
+    let bad = dir.path().join("bad");
+    for args in [
+        vec!["--render", "--image", "0x16"],
+        vec!["--render", "--march-step", "-1"],
+        vec!["--render", "--save-every", "0"],
+    ] {
+        let mut full = vec!["run", "hot-cold", "--res", "8", "--frames", "2", "--quiet"];
+        full.extend(args.iter().copied());
+        full.extend(["--out", bad.to_str().unwrap()]);
+        let o = smokelab(&full);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(!bad.exists(), "{args:?} wrote {}", bad.display());
+    }
+}

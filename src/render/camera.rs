@@ -42,15 +42,20 @@ pub struct RayGen {
 /// Default viewing direction (from the box centre towards the eye): in
 /// front of the box (+z), a little to the right and above, so a TD sees the
 /// volume in three-quarter view with its top face foreshortened.
-const DEFAULT_VIEW: Vec3 = Vec3::new(0.35, 0.3, 1.0);
+pub const DEFAULT_VIEW: Vec3 = Vec3::new(0.35, 0.3, 1.0);
 
 impl Camera {
-    /// A camera that frames `domain`: looking at the box centre from
-    /// [`DEFAULT_VIEW`] with a 30° vertical fov, at the distance where the
-    /// box's eight corners fill `fill` (0..1] of the image's half-width or
-    /// half-height, whichever binds.
+    /// A camera that frames `domain` with a 30° vertical fov; see
+    /// [`Camera::framing_fov`].
     pub fn framing(domain: &Domain, width: u32, height: u32, fill: f32) -> Self {
-        let fov_deg: f32 = 30.0;
+        Self::framing_fov(domain, width, height, fill, 30.0)
+    }
+
+    /// A camera that frames `domain`: looking at the box centre from
+    /// [`DEFAULT_VIEW`] with vertical field of view `fov_deg`, at the
+    /// distance where the box's eight corners fill `fill` (0..1] of the
+    /// image's half-width or half-height, whichever binds.
+    pub fn framing_fov(domain: &Domain, width: u32, height: u32, fill: f32, fov_deg: f32) -> Self {
         let centre = domain.origin + 0.5 * domain.size();
         let back = DEFAULT_VIEW.normalize();
         let right = (-back).cross(Vec3::Y).normalize();
@@ -81,6 +86,12 @@ impl Camera {
     /// vector not parallel to the view, 0 < fov < 180, image sides in
     /// `1..=MAX_IMAGE_SIDE`.
     pub fn validate(&self) -> Result<(), InputError> {
+        if !(self.fov_deg.is_finite() && self.fov_deg > 0.0 && self.fov_deg < 180.0) {
+            return Err(InputError::new(format!(
+                "field of view is {}°; it must lie strictly between 0 and 180",
+                self.fov_deg
+            )));
+        }
         for (name, v) in [
             ("camera position", self.position),
             ("camera look-at", self.look_at),
@@ -101,12 +112,6 @@ impl Camera {
             return Err(InputError::new(format!(
                 "camera up {} is parallel to the view direction; choose another up",
                 self.up
-            )));
-        }
-        if !(self.fov_deg.is_finite() && self.fov_deg > 0.0 && self.fov_deg < 180.0) {
-            return Err(InputError::new(format!(
-                "field of view is {}°; it must lie strictly between 0 and 180",
-                self.fov_deg
             )));
         }
         check_image_size(self.width, self.height)

@@ -49,7 +49,7 @@ pub struct RenderArgs {
     /// Point the camera looks at, X,Y,Z (default: the box centre).
     #[arg(long, allow_hyphen_values = true)]
     pub look_at: Option<String>,
-    /// Vertical field of view in degrees.
+    /// Vertical field of view in degrees (the default framing keeps the box in view).
     #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
     pub fov: f32,
     /// Image size WxH.
@@ -213,14 +213,13 @@ fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
             })
             .collect::<Result<_, InputError>>()?
     };
-    let mut camera = Camera::framing(&bounds, width, height, 0.9);
+    let mut camera = Camera::framing_fov(&bounds, width, height, look::FILL, args.fov);
     if let Some(c) = &args.camera {
         camera.position = parse_vec3(c, "--camera")?;
     }
     if let Some(l) = &args.look_at {
         camera.look_at = parse_vec3(l, "--look-at")?;
     }
-    camera.fov_deg = args.fov;
     let scene = Scene {
         bounds,
         volumes,

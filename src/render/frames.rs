@@ -7,7 +7,7 @@ use std::sync::Arc;
 use anyhow::Result;
 use serde::Serialize;
 
-use super::camera::{check_image_size, parse_image_size, Camera};
+use super::camera::{check_image_size, parse_image_size};
 use super::output::{self, Display, ExrPrecision};
 use super::phase::Phase;
 use super::{check_step, look, render, RenderSettings, RenderStats, Scene};
@@ -21,10 +21,9 @@ use crate::scenario::hot_cold::HotColdConfig;
 use crate::simulation::Simulation;
 
 /// Which frames of a run to render, and how.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug)]
 pub struct FrameRender {
     /// The frames to render.
-    #[serde(skip)]
     pub frames: SaveFrames,
     /// Image width and height in pixels.
     pub image: (u32, u32),
@@ -67,9 +66,10 @@ impl FrameRender {
         }
         let every = args.render_every.unwrap_or(config.save_every);
         if every == 0 {
-            return Err(InputError::new(
-                "--render needs --render-every K with K ≥ 1 (--save-every is 0)",
-            ));
+            return Err(InputError::new(match args.render_every {
+                Some(_) => "--render-every is 0; it must be at least 1",
+                None => "--render renders every --save-every frames, which is 0; give --render-every K ≥ 1",
+            }));
         }
         let image = match &args.image {
             Some(s) => parse_image_size(s)?,
@@ -92,28 +92,14 @@ impl FrameRender {
     /// Render the gases of `sim` into `out/render_NNNN.{exr,png}`.
     pub fn render_frame(&self, sim: &Simulation, out: &Path, frame: usize) -> Result<FrameRecord> {
         let domain = *sim.domain();
-        let volumes = sim
-            .gases
-            .iter()
-            .map(|g| {
-                let color = if g.lift >= 0.0 { look::HOT } else { look::COLD };
-                let density: Scalar = Arc::new(g.density.clone());
-                look::smoke(&g.name, density, color, look::KAPPA, look::GLOW)
-            })
-            .collect();
-        let scene = Scene {
-            bounds: domain,
-            volumes,
-            lights: vec![look::key_light(&domain)],
-            phase: Phase::Isotropic,
-        };
+        let scene = simulation_scene(sim);
         let settings = RenderSettings {
             step: self.step,
-            ..RenderSettings::new(Camera::framing(&domain, self.image.0, self.image.1, 0.9))
+            ..RenderSettings::new(look::camera(&domain, self.image.0, self.image.1))
         };
         let r = render(&scene, &settings)?;
         let exr = out.join(format!("render_{frame:04}.exr"));
-        let png = render_path(out, frame);
+        let png = out.join(format!("render_{frame:04}.png"));
         output::write_exr(&exr, &r.image, self.precision)?;
         io::write_png(&png, &output::preview(&r.image, &Display::default()))?;
         Ok(FrameRecord {
@@ -125,9 +111,26 @@ impl FrameRender {
     }
 }
 
-/// Path of the PNG render of `frame`.
-pub fn render_path(out: &Path, frame: usize) -> PathBuf {
-    out.join(format!("render_{frame:04}.png"))
+/// The default scene of a simulation frame: every gas as smoke in the
+/// default look (lift ≥ 0 hot red, else cold blue), one key light,
+/// isotropic scattering, inside the simulation box.
+pub fn simulation_scene(sim: &Simulation) -> Scene {
+    let domain = *sim.domain();
+    let volumes = sim
+        .gases
+        .iter()
+        .map(|g| {
+            let color = if g.lift >= 0.0 { look::HOT } else { look::COLD };
+            let density: Scalar = Arc::new(g.density.clone());
+            look::smoke(&g.name, density, color, look::KAPPA, look::GLOW)
+        })
+        .collect();
+    Scene {
+        bounds: domain,
+        volumes,
+        lights: vec![look::key_light(&domain)],
+        phase: Phase::Isotropic,
+    }
 }
 
 /// One rendered frame, for the run's manifest.

@@ -10,11 +10,11 @@
 
 use glam::Vec3;
 
+use super::camera::Camera;
 use super::lights::PointLight;
 use super::Volume;
 use crate::domain::Domain;
 use crate::field::Scalar;
-use crate::io::preview;
 
 /// Default extinction per unit density.
 pub const KAPPA: f32 = 1.5;
@@ -22,12 +22,20 @@ pub const KAPPA: f32 = 1.5;
 /// Default emission as a fraction of the scattering colour.
 pub const GLOW: f32 = 0.12;
 
-/// Display colour of the hot gas (the slice previews' red).
-pub const HOT: Vec3 = Vec3::from_array(preview::RED);
-/// Display colour of the cold gas (the slice previews' blue).
-pub const COLD: Vec3 = Vec3::from_array(preview::BLUE);
+/// Display colour of the hot gas: a saturated red (sRGB ≈ 240, 70, 40).
+pub const HOT: Vec3 = Vec3::new(0.88, 0.06, 0.02);
+/// Display colour of the cold gas: a saturated blue (sRGB ≈ 50, 110, 245).
+pub const COLD: Vec3 = Vec3::new(0.03, 0.15, 0.9);
 /// Display colour of a buoyant gas in a box (fig 6.6).
-pub const GREEN: Vec3 = Vec3::from_array(preview::GREEN);
+pub const GREEN: Vec3 = Vec3::new(0.08, 0.7, 0.12);
+
+/// Fraction of the image the box's corners fill in the default framing.
+pub const FILL: f32 = 0.9;
+
+/// The default camera: three-quarter view framing the whole box.
+pub fn camera(bounds: &Domain, width: u32, height: u32) -> Camera {
+    Camera::framing(bounds, width, height, FILL)
+}
 
 /// Default colours of the i-th volume when none is given: hot, cold, green,
 /// then white.
