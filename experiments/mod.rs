@@ -10,8 +10,12 @@
 mod fournier_forand;
 #[path = "A_1_henyey_greenstein.rs"]
 mod henyey_greenstein;
+#[path = "07_2_gridless_noise_step.rs"]
+mod gridless_noise_step;
 #[path = "06_1_hot_cold_gridded.rs"]
 mod hot_cold_gridded;
+#[path = "N_3_simulation_noise_2d.rs"]
+mod simulation_noise_2d;
 
 use std::path::PathBuf;
 
@@ -62,6 +66,8 @@ pub const ALL: &[Experiment] = &[
     hot_cold_gridded::EXPERIMENT,
     henyey_greenstein::EXPERIMENT,
     fournier_forand::EXPERIMENT,
+    gridless_noise_step::EXPERIMENT,
+    simulation_noise_2d::EXPERIMENT,
 ];
 
 /// The ids of all experiments.

@@ -588,3 +588,35 @@ fn noise_command_rejects_bad_input_and_writes_nothing() {
         println!("{args:?}: {msg}");
     }
 }
+
+/// The noise experiments run end to end at smoke size.
+#[test]
+fn noise_experiments_run_at_smoke_size() {
+    let dir = tempfile::tempdir().unwrap();
+    for id in ["N-3", "07-2"] {
+        let exp = smokelab::experiments::find(id).unwrap();
+        let out = dir.path().join(id);
+        let ctx = smokelab::experiments::Context {
+            out: out.clone(),
+            size: smokelab::experiments::Size::Smoke,
+            progress: false,
+        };
+        (exp.run)(&ctx).unwrap();
+        for file in ["data.csv", "manifest.json"] {
+            assert!(out.join(file).is_file(), "{id}: no {file}");
+        }
+    }
+    let csv = std::fs::read_to_string(dir.path().join("N-3/data.csv")).unwrap();
+    let ratio = |kind: &str| -> f64 {
+        let line = csv
+            .lines()
+            .find(|l| l.starts_with(&format!("{kind},")))
+            .unwrap();
+        line.rsplit(',').next().unwrap().parse().unwrap()
+    };
+    // Value noise diverges; smooth simulation noise does not (to O(h²)).
+    assert!(
+        ratio("value-2d") > 0.1 && ratio("smooth-sim-2d") < 1e-3,
+        "{csv}"
+    );
+}
