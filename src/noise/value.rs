@@ -5,12 +5,19 @@
 //! Trilinear (3D) or bilinear (2D) in each lattice cell, C0 across cells, and
 //! **not** divergence-free: its divergence is the sum of the slopes of three
 //! independent random interpolants. Cost per 3D evaluation: 8 corner lookups,
-//! 7 lerps per component = 42 FP add/subtracts and 21 multiplies (`000_…` §3).
+//! 7 mixes per component = 42 FP add/subtracts and 21 multiplies (`000_…` §3).
 
 use glam::Vec3;
 
 use super::lattice::{cell, Corners};
 use crate::field::VectorField;
+
+/// `a + (b − a) t` per component: 2 add/subtracts and 1 multiply each, the
+/// form `000_…` counts.
+#[inline(always)]
+fn mix(a: Vec3, b: Vec3, t: f32) -> Vec3 {
+    a + (b - a) * t
+}
 
 /// 3D value noise on the unit lattice.
 #[derive(Clone, Copy, Debug)]
@@ -30,11 +37,11 @@ impl<C: Corners> ValueNoise<C> {
         let (j, fy) = cell(p.y);
         let (k, fz) = cell(p.z);
         let c = |a, b, d| self.corners.corner(i + a, j + b, k + d);
-        let x00 = c(0, 0, 0).lerp(c(1, 0, 0), fx);
-        let x10 = c(0, 1, 0).lerp(c(1, 1, 0), fx);
-        let x01 = c(0, 0, 1).lerp(c(1, 0, 1), fx);
-        let x11 = c(0, 1, 1).lerp(c(1, 1, 1), fx);
-        x00.lerp(x10, fy).lerp(x01.lerp(x11, fy), fz)
+        let x00 = mix(c(0, 0, 0), c(1, 0, 0), fx);
+        let x10 = mix(c(0, 1, 0), c(1, 1, 0), fx);
+        let x01 = mix(c(0, 0, 1), c(1, 0, 1), fx);
+        let x11 = mix(c(0, 1, 1), c(1, 1, 1), fx);
+        mix(mix(x00, x10, fy), mix(x01, x11, fy), fz)
     }
 }
 
@@ -67,11 +74,9 @@ impl<C: Corners> ValueNoise2<C> {
     fn sample(&self, p: Vec3) -> Vec3 {
         let (i, fx) = cell(p.x);
         let (j, fy) = cell(p.y);
-        let c = |a, b| self.corners.corner(i + a, j + b, 0).truncate();
-        let v = c(0, 0)
-            .lerp(c(1, 0), fx)
-            .lerp(c(0, 1).lerp(c(1, 1), fx), fy);
-        v.extend(0.0)
+        let c = |a, b| self.corners.corner(i + a, j + b, 0);
+        let v = mix(mix(c(0, 0), c(1, 0), fx), mix(c(0, 1), c(1, 1), fx), fy);
+        v.truncate().extend(0.0)
     }
 }
 
