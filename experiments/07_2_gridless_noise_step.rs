@@ -51,6 +51,7 @@ use crate::noise::spectral::{SpectralNoise, SpectralParams, SpectralTile, Spectr
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
     id: "07-2",
+    folder: "07-2",
     reproduces: "fig 7.2",
     title: "one gridless step of a uniform sphere by spectral noise",
     cost: "~10 s",

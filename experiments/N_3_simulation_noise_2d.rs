@@ -39,6 +39,7 @@ use crate::noise::{lic, NoiseKind, NoiseSpec};
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
     id: "N-3",
+    folder: "N-3",
     reproduces: "000 fig 3",
     title: "2D fractal value / fast / smooth simulation noise, LIC by speed",
     cost: "~5 s",
