@@ -24,8 +24,8 @@
 //! 32³ tile).
 //!
 //! Writes `results/07-2/`: `before.png`, `after.png` (the z = 0 slice,
-//! density as `1 − exp(−4ρ)`), `noise.png` (LIC of the noise on the same
-//! slice), `before_after.png` (the three side by side), `projection.png`
+//! density as `1 − exp(−4ρ)`), `before_after.png` (before, after, and an LIC
+//! of the noise on the same slice, side by side), `projection.png`
 //! (before and after, `1 − exp(−κ∫ρ dz)` through the grid, a stand-in for the
 //! renderer), `data.csv` (mass, occupied volume and interface cells before
 //! and after), `manifest.json`, and `density_after.npy` (git-ignored).
@@ -185,7 +185,6 @@ fn run(ctx: &Context) -> Result<()> {
     let noise_img = lic::render(&vel, pixels, pixels, pixels as f32 / 40.0, config.seed);
     io::write_png(&ctx.out.join("before.png"), &images[0])?;
     io::write_png(&ctx.out.join("after.png"), &images[1])?;
-    io::write_png(&ctx.out.join("noise.png"), &noise_img)?;
     io::write_png(
         &ctx.out.join("before_after.png"),
         &io::preview::side_by_side(&[images[0].clone(), images[1].clone(), noise_img], 6),
