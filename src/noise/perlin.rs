@@ -11,6 +11,10 @@
 //! ∇N(p) = Σ_o w_o g_o + Σ_o (g_o·(f − o)) ∇w_o
 //! ```
 //!
+//! Both sums are evaluated as the trilinear blend written as a polynomial in
+//! the faded coordinates `(u, v, w)`, whose `u`, `v`, `w` derivatives times
+//! `s'` give the second sum.
+//!
 //! Inside a cell `N` is a polynomial of degree 6 per axis; across cells it is
 //! C2 (the fade has vanishing first and second derivatives at 0 and 1), so
 //! its gradient is C1 and the curl and bitangent fields built from it are
@@ -109,28 +113,53 @@ impl Perlin {
         let (i, fx) = cell(p.x);
         let (j, fy) = cell(p.y);
         let (k, fz) = cell(p.z);
-        let s = Vec3::new(fade(fx), fade(fy), fade(fz));
-        let ds = Vec3::new(
+        let g = |a: i32, b: i32, c: i32| self.gradient_at(i + a, j + b, k + c);
+        let (g000, g100, g010, g110) = (g(0, 0, 0), g(1, 0, 0), g(0, 1, 0), g(1, 1, 0));
+        let (g001, g101, g011, g111) = (g(0, 0, 1), g(1, 0, 1), g(0, 1, 1), g(1, 1, 1));
+        let (x1, y1, z1) = (fx - 1.0, fy - 1.0, fz - 1.0);
+        let n = |g: Vec3, x: f32, y: f32, z: f32| g.x * x + g.y * y + g.z * z;
+        let (n000, n100) = (n(g000, fx, fy, fz), n(g100, x1, fy, fz));
+        let (n010, n110) = (n(g010, fx, y1, fz), n(g110, x1, y1, fz));
+        let (n001, n101) = (n(g001, fx, fy, z1), n(g101, x1, fy, z1));
+        let (n011, n111) = (n(g011, fx, y1, z1), n(g111, x1, y1, z1));
+        // The trilinear blend in fade coordinates as a polynomial in
+        // (u, v, w): c0 + c1 u + c2 v + c3 w + c4 uv + c5 vw + c6 wu + c7 uvw.
+        let (u, v, w) = (fade(fx), fade(fy), fade(fz));
+        let (du, dv, dw) = (
             fade_derivative(fx),
             fade_derivative(fy),
             fade_derivative(fz),
         );
-        let mut value = 0.0;
-        let mut grad = Vec3::ZERO;
-        for c in 0..8 {
-            let o = [c & 1, (c >> 1) & 1, (c >> 2) & 1];
-            let g = self.gradient_at(i + o[0], j + o[1], k + o[2]);
-            let r = Vec3::new(fx - o[0] as f32, fy - o[1] as f32, fz - o[2] as f32);
-            let n = g.dot(r);
-            // Per-axis weight and its derivative for this corner.
-            let w = |a: usize| if o[a] == 1 { s[a] } else { 1.0 - s[a] };
-            let dw = |a: usize| if o[a] == 1 { ds[a] } else { -ds[a] };
-            let (wx, wy, wz) = (w(0), w(1), w(2));
-            let weight = wx * wy * wz;
-            value += weight * n;
-            grad += weight * g + n * Vec3::new(dw(0) * wy * wz, wx * dw(1) * wz, wx * wy * dw(2));
-        }
-        (value, grad)
+        let k1 = n100 - n000;
+        let k2 = n010 - n000;
+        let k3 = n001 - n000;
+        let k4 = n110 - n010 - k1;
+        let k5 = n011 - n001 - k2;
+        let k6 = n101 - n001 - k1;
+        let k7 = (n111 - n011) - (n101 - n001) - k4;
+        let value =
+            n000 + u * k1 + v * k2 + w * k3 + u * v * k4 + v * w * k5 + w * u * k6 + u * v * w * k7;
+        let h1 = g100 - g000;
+        let h2 = g010 - g000;
+        let h3 = g001 - g000;
+        let h4 = g110 - g010 - h1;
+        let h5 = g011 - g001 - h2;
+        let h6 = g101 - g001 - h1;
+        let h7 = (g111 - g011) - (g101 - g001) - h4;
+        let blended = g000
+            + u * h1
+            + v * h2
+            + w * h3
+            + (u * v) * h4
+            + (v * w) * h5
+            + (w * u) * h6
+            + (u * v * w) * h7;
+        let chain = Vec3::new(
+            du * (k1 + v * k4 + w * k6 + v * w * k7),
+            dv * (k2 + w * k5 + u * k4 + w * u * k7),
+            dw * (k3 + u * k6 + v * k5 + u * v * k7),
+        );
+        (value, blended + chain)
     }
 }
 
@@ -169,26 +198,28 @@ impl Perlin2 {
         self.value_gradient(p).0
     }
 
-    /// `(N, ∇N)` at `(x, y)`.
+    /// `(N, ∇N)` at `(x, y)`, the 2D form of [`Perlin::value_gradient`].
     #[inline(always)]
     pub fn value_gradient(&self, p: Vec2) -> (f32, Vec2) {
         let (i, fx) = cell(p.x);
         let (j, fy) = cell(p.y);
-        let s = Vec2::new(fade(fx), fade(fy));
-        let ds = Vec2::new(fade_derivative(fx), fade_derivative(fy));
-        let mut value = 0.0;
-        let mut grad = Vec2::ZERO;
-        for c in 0..4 {
-            let o = [c & 1, (c >> 1) & 1];
-            let g = self.gradient_at(i + o[0], j + o[1]);
-            let n = g.dot(Vec2::new(fx - o[0] as f32, fy - o[1] as f32));
-            let w = |a: usize| if o[a] == 1 { s[a] } else { 1.0 - s[a] };
-            let dw = |a: usize| if o[a] == 1 { ds[a] } else { -ds[a] };
-            let weight = w(0) * w(1);
-            value += weight * n;
-            grad += weight * g + n * Vec2::new(dw(0) * w(1), w(0) * dw(1));
-        }
-        (value, grad)
+        let (g00, g10) = (self.gradient_at(i, j), self.gradient_at(i + 1, j));
+        let (g01, g11) = (self.gradient_at(i, j + 1), self.gradient_at(i + 1, j + 1));
+        let (x1, y1) = (fx - 1.0, fy - 1.0);
+        let n00 = g00.x * fx + g00.y * fy;
+        let n10 = g10.x * x1 + g10.y * fy;
+        let n01 = g01.x * fx + g01.y * y1;
+        let n11 = g11.x * x1 + g11.y * y1;
+        let (u, v) = (fade(fx), fade(fy));
+        let (du, dv) = (fade_derivative(fx), fade_derivative(fy));
+        let (k1, k2) = (n10 - n00, n01 - n00);
+        let k3 = n11 - n01 - k1;
+        let value = n00 + u * k1 + v * k2 + u * v * k3;
+        let (h1, h2) = (g10 - g00, g01 - g00);
+        let h3 = g11 - g01 - h1;
+        let blended = g00 + u * h1 + v * h2 + (u * v) * h3;
+        let chain = Vec2::new(du * (k1 + v * k3), dv * (k2 + u * k3));
+        (value, blended + chain)
     }
 }
 
