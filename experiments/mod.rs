@@ -10,6 +10,8 @@
 mod fournier_forand;
 #[path = "A_1_henyey_greenstein.rs"]
 mod henyey_greenstein;
+#[path = "N_4_artist_spline.rs"]
+mod artist_spline;
 #[path = "07_2_gridless_noise_step.rs"]
 mod gridless_noise_step;
 #[path = "06_1_hot_cold_gridded.rs"]
@@ -68,6 +70,7 @@ pub const ALL: &[Experiment] = &[
     fournier_forand::EXPERIMENT,
     gridless_noise_step::EXPERIMENT,
     simulation_noise_2d::EXPERIMENT,
+    artist_spline::EXPERIMENT,
 ];
 
 /// The ids of all experiments.

@@ -584,7 +584,7 @@ fn noise_command_rejects_bad_input_and_writes_nothing() {
 #[test]
 fn noise_experiments_run_at_smoke_size() {
     let dir = tempfile::tempdir().unwrap();
-    for id in ["N-3", "07-2"] {
+    for id in ["N-3", "N-4", "07-2"] {
         let exp = smokelab::experiments::find(id).unwrap();
         let out = dir.path().join(id);
         let ctx = smokelab::experiments::Context {

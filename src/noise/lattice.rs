@@ -75,7 +75,7 @@ pub fn cell(x: f32) -> (i32, f32) {
 }
 
 /// A corner lookup: three random values per integer lattice point.
-pub trait Corners: Copy + Send + Sync + 'static {
+pub trait Corners: Clone + Send + Sync + 'static {
     /// The values `(e_x, e_y, e_z)` at lattice point `(i, j, k)`.
     fn corner(&self, i: i32, j: i32, k: i32) -> Vec3;
 }

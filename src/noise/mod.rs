@@ -17,7 +17,8 @@
 //! hash their corners with a seeded key ([`lattice`]) and are not periodic.
 //! 2D kinds live in the xy plane: they ignore `z` and return a zero z
 //! component. [`fractal`] sums octaves of any kind; [`drag`] couples particles
-//! to a field (`000_…` §3); [`lic`] draws a slice so the flow is visible.
+//! to a field (`000_…` §3); [`artist`] steers simulation noise along splines
+//! (`000_…` §5); [`lic`] draws a slice so the flow is visible.
 //!
 //! Build any kind from a [`NoiseSpec`]:
 //!
@@ -31,6 +32,7 @@
 //! assert_eq!(v.eval(Vec3::new(2.0, 3.0, 0.5)), Vec3::ZERO);
 //! ```
 
+pub mod artist;
 pub mod bitangent;
 pub mod command;
 pub mod curl;
