@@ -24,6 +24,7 @@ use crate::render::phase::Phase;
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
     id: "A-1",
+    folder: "A-1",
     reproduces: "fig A.1",
     title: "Henyey–Greenstein phase function, g = ±0.5, ±0.99",
     cost: "<1 s",

@@ -31,6 +31,7 @@ use crate::render::phase::{self, Phase};
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
     id: "A-2",
+    folder: "A-2",
     reproduces: "fig A.2",
     title: "Fournier–Forand phase function, n = 1.05, μ = 3.5…5",
     cost: "<1 s",
