@@ -38,7 +38,11 @@ const BAND: f64 = 0.25;
 fn levels(size: Size) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
     match size {
         Size::Smoke => (vec![32, 64, 128], vec![16, 32, 64], vec![16, 32]),
-        Size::Default => (vec![32, 64, 128, 256, 512], vec![32, 64, 128, 256], vec![16, 32, 64, 128]),
+        Size::Default => (
+            vec![32, 64, 128, 256, 512],
+            vec![32, 64, 128, 256],
+            vec![16, 32, 64, 128],
+        ),
         Size::Full => (
             vec![32, 64, 128, 256, 512, 1024],
             vec![32, 64, 128, 256, 512],
@@ -64,7 +68,10 @@ fn run(ctx: &Context) -> Result<()> {
     let mut summary = vec![];
     for s in &studies {
         let fit = s.fit();
-        let mut csv = CsvLog::new(ctx.out.join(format!("{}.csv", s.name)), &["h", "error", "rate"]);
+        let mut csv = CsvLog::new(
+            ctx.out.join(format!("{}.csv", s.name)),
+            &["h", "error", "rate"],
+        );
         for i in 0..s.h.len() {
             let rate = if i == 0 { f64::NAN } else { fit.rates[i - 1] };
             csv.push(&[s.h[i], s.error[i], rate]);
@@ -83,7 +90,10 @@ fn run(ctx: &Context) -> Result<()> {
         ));
         summary.push(serde_json::json!({"study": s.name, "expected": s.expected, "observed": fit.order, "pass": ok}));
         if ctx.progress {
-            eprintln!("{}: observed order {:.3} (expected {})", s.name, fit.order, s.expected);
+            eprintln!(
+                "{}: observed order {:.3} (expected {})",
+                s.name, fit.order, s.expected
+            );
         }
     }
     io::write_atomic(&ctx.out.join("orders.md"), |w| {
@@ -93,7 +103,12 @@ fn run(ctx: &Context) -> Result<()> {
     let config = serde_json::json!({"size": format!("{:?}", ctx.size), "band": BAND});
     io::write_json(
         &ctx.out.join("manifest.json"),
-        &Manifest::new(config, 0, start.elapsed().as_secs_f64(), serde_json::json!(summary)),
+        &Manifest::new(
+            config,
+            0,
+            start.elapsed().as_secs_f64(),
+            serde_json::json!(summary),
+        ),
     )
 }
 
@@ -101,7 +116,10 @@ fn run(ctx: &Context) -> Result<()> {
 fn plot_study(ctx: &Context, s: &Study, observed: f64) -> Result<()> {
     let points: Vec<(f64, f64)> = s.h.iter().copied().zip(s.error.iter().copied()).collect();
     let (h_fine, e_fine) = *points.last().expect("studies have levels");
-    let guide: Vec<(f64, f64)> = s.h.iter().map(|&h| (h, e_fine * (h / h_fine).powf(s.expected))).collect();
+    let guide: Vec<(f64, f64)> =
+        s.h.iter()
+            .map(|&h| (h, e_fine * (h / h_fine).powf(s.expected)))
+            .collect();
     let all = points.iter().chain(&guide).map(|p| p.1);
     let (lo, hi) = all.fold((f64::MAX, f64::MIN), |(lo, hi), e| (lo.min(e), hi.max(e)));
     Plot::new(s.name.clone(), "h", "rms error")
@@ -110,7 +128,11 @@ fn plot_study(ctx: &Context, s: &Study, observed: f64) -> Result<()> {
         .y_range(lo / 1.5, hi * 1.5)
         .series(Series::line("measured", points).styled(Style::LineMarkers))
         .series(Series::line(format!("slope {}", s.expected), guide).styled(Style::Dashed))
-        .annotate(Annotation::at_fraction(0.05, 0.08, format!("observed order {observed:.2}")))
+        .annotate(Annotation::at_fraction(
+            0.05,
+            0.08,
+            format!("observed order {observed:.2}"),
+        ))
         .write(&ctx.out.join(&s.name))?;
     Ok(())
 }

@@ -6,14 +6,20 @@
 //! `smokelab experiment --list`. Every experiment writes into `results/<id>/`
 //! by default: images, `data.csv` or `metrics.csv`, and `manifest.json`.
 
-#[path = "A_2_fournier_forand.rs"]
-mod fournier_forand;
-#[path = "A_1_henyey_greenstein.rs"]
-mod henyey_greenstein;
+#[path = "N_4_artist_spline.rs"]
+mod artist_spline;
 #[path = "C_1_convergence.rs"]
 mod convergence;
+#[path = "A_2_fournier_forand.rs"]
+mod fournier_forand;
+#[path = "07_2_gridless_noise_step.rs"]
+mod gridless_noise_step;
+#[path = "A_1_henyey_greenstein.rs"]
+mod henyey_greenstein;
 #[path = "06_1_hot_cold_gridded.rs"]
 mod hot_cold_gridded;
+#[path = "N_3_simulation_noise_2d.rs"]
+mod simulation_noise_2d;
 
 use std::path::PathBuf;
 
@@ -62,8 +68,11 @@ pub struct Experiment {
 /// Every experiment, in the notes' order.
 pub const ALL: &[Experiment] = &[
     hot_cold_gridded::EXPERIMENT,
+    gridless_noise_step::EXPERIMENT,
     henyey_greenstein::EXPERIMENT,
     fournier_forand::EXPERIMENT,
+    simulation_noise_2d::EXPERIMENT,
+    artist_spline::EXPERIMENT,
     convergence::EXPERIMENT,
 ];
 

@@ -35,6 +35,8 @@ pub enum Command {
     Experiment(ExperimentArgs),
     /// Render saved density volumes (.npy) to EXR and PNG.
     Render(crate::render::command::RenderArgs),
+    /// Sample a divergence-free noise onto an N³ grid (`noise.npy` + slice PNG).
+    Noise(crate::noise::command::NoiseArgs),
 }
 
 /// `smokelab run`.
@@ -186,6 +188,7 @@ pub fn execute(cli: Cli) -> Result<()> {
             init_threads(args.threads)?;
             crate::render::command::run(&args)
         }
+        Some(Command::Noise(args)) => crate::noise::command::run(&args),
     }
 }
 

@@ -14,6 +14,7 @@
 //! - [`projection`] — FFT divergence-free projection with exact viscosity;
 //! - [`metrics`] — divergence, mirror symmetry;
 //! - [`convergence`] — observed order of accuracy for convergence tests;
+//! - [`noise`] — divergence-free noise velocities (simulation, curl, bitangent, spectral);
 //! - [`timing`] — stage timers, peak memory;
 //! - [`plot`] — line plots (PNG + SVG) for the experiments;
 //! - [`simulation`] — the time step;
@@ -46,6 +47,7 @@ pub mod field;
 pub mod grid;
 pub mod io;
 pub mod metrics;
+pub mod noise;
 pub mod plot;
 pub mod projection;
 pub mod render;
