@@ -10,9 +10,10 @@
 //! - [`domain`] — the box, cell size and index ↔ world conventions;
 //! - [`field`] — scalar and vector fields, batch evaluation, combinators;
 //! - [`grid`] — caches: trilinear `cacheread`, parallel `cachewrite`;
-//! - [`advection`] — semi-Lagrangian (eqs 6.4–6.5);
+//! - [`advection`] — semi-Lagrangian (eqs 6.4–6.5) and QUICK;
 //! - [`projection`] — FFT divergence-free projection with exact viscosity;
 //! - [`metrics`] — divergence, mirror symmetry;
+//! - [`boundary`] — level-set obstacles, reflecting and sticky rules (eqs 6.6–6.7);
 //! - [`convergence`] — observed order of accuracy for convergence tests;
 //! - [`timing`] — stage timers, peak memory;
 //! - [`simulation`] — the time step;
@@ -34,6 +35,7 @@
 //! ```
 
 pub mod advection;
+pub mod boundary;
 pub mod cli;
 pub mod convergence;
 pub mod domain;

@@ -10,15 +10,18 @@
 //!
 //! [`Simulation::step`] is exactly those four lines: [`Simulation::advect_densities`],
 //! [`Simulation::advect_velocity`], [`Simulation::add_buoyancy`] and
-//! [`Simulation::project`]. The departure points of the step are traced once
-//! (all quantities move with the same velocity) and shared by every
-//! interpolation. Every buffer is allocated once in [`Simulation::new`]; a
-//! step allocates nothing but the projection's per-task scratch.
+//! [`Simulation::project`], followed by [`Simulation::apply_boundary`] when
+//! there are obstacles (§6.3, eqs 6.6–6.7). The advection step is prepared
+//! once — departure points traced (SL) or face velocities frozen (QUICK) —
+//! since all quantities move with the same velocity. Every buffer is
+//! allocated once in [`Simulation::new`]; a step allocates nothing but the
+//! projection's per-task scratch.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::advection::{self, Backtrace, Departures};
+use crate::advection::{AdvectionOptions, Advector, Backtrace, CflError};
+use crate::boundary::Boundary;
 use crate::domain::Domain;
 use crate::field::Scalar;
 use crate::grid::{ScalarGrid, VectorGrid};
@@ -82,13 +85,15 @@ pub struct Simulation {
     pub step_index: usize,
     /// Wall time per stage of the last step.
     pub times: StageTimes,
+    /// Obstacles and their rule (eqs 6.6–6.7), if any.
+    pub boundary: Option<Boundary>,
     velocity_scratch: VectorGrid,
-    departures: Departures,
+    advector: Advector,
     projection: Projection,
 }
 
 impl Simulation {
-    /// A fluid at rest on `domain` carrying `gases`.
+    /// A fluid at rest on `domain` carrying `gases`, advected semi-Lagrangian.
     pub fn new(domain: Domain, params: StepParams, gases: Vec<Gas>) -> Self {
         Self {
             params,
@@ -96,10 +101,40 @@ impl Simulation {
             gases,
             step_index: 0,
             times: StageTimes::default(),
+            boundary: None,
             velocity_scratch: VectorGrid::zeros(domain),
-            departures: Departures::new(domain),
+            advector: Advector::new(domain, &AdvectionOptions::default(), params.backtrace),
             projection: Projection::new(domain),
         }
+    }
+
+    /// The same simulation advecting with `options` (scheme, QUICK sub-steps, limiter).
+    pub fn with_advection(mut self, options: &AdvectionOptions) -> Self {
+        self.advector = Advector::new(*self.domain(), options, self.params.backtrace);
+        if let Some(b) = &self.boundary {
+            self.advector.set_solid(&b.solid());
+        }
+        self
+    }
+
+    /// The same simulation with obstacles (QUICK closes the faces of their cells).
+    ///
+    /// # Panics
+    /// If the boundary was sampled on another domain.
+    pub fn with_boundary(mut self, boundary: Boundary) -> Self {
+        assert_eq!(
+            boundary.level().domain(),
+            self.domain(),
+            "boundary sampled on another domain"
+        );
+        self.advector.set_solid(&boundary.solid());
+        self.boundary = Some(boundary);
+        self
+    }
+
+    /// The advection state of the last step (e.g. its QUICK sub-step count).
+    pub fn advector(&self) -> &Advector {
+        &self.advector
     }
 
     /// The grid everything lives on.
@@ -112,29 +147,49 @@ impl Simulation {
         self.step_index as f32 * self.params.dt
     }
 
-    /// One time step: eqs 6.4, 6.5 and the projection (6.3).
-    pub fn step(&mut self) {
+    /// One time step: eqs 6.4, 6.5, the projection (6.3) and the boundary
+    /// rule (6.6/6.7).
+    ///
+    /// # Errors
+    /// A QUICK step that would break its CFL bound and may not be split into
+    /// sub-steps; the state is then unchanged.
+    pub fn try_step(&mut self) -> Result<(), CflError> {
         let mut times = StageTimes::default();
-        timed(&mut times.advect, || self.trace_departures());
+        timed(&mut times.advect, || self.prepare_advection())?;
         timed(&mut times.advect, || self.advect_densities());
         timed(&mut times.advect, || self.advect_velocity());
         timed(&mut times.force, || self.add_buoyancy());
         timed(&mut times.project, || self.project());
+        timed(&mut times.project, || self.apply_boundary());
         self.step_index += 1;
         self.times = times;
+        Ok(())
     }
 
-    /// The departure points `x − ∫u dt` of every cell for this step.
-    pub fn trace_departures(&mut self) {
-        let p = self.params;
-        self.departures.trace(&self.velocity, p.dt, p.backtrace);
+    /// [`Self::try_step`] for callers that cannot recover from a refused step.
+    ///
+    /// # Panics
+    /// With the [`CflError`] message if the step is refused.
+    pub fn step(&mut self) {
+        if let Err(e) = self.try_step() {
+            panic!("step {}: {e}", self.step_index + 1);
+        }
     }
 
-    /// Eq 6.4: `ρ ← ρ(x − uΔt) + S Δt` for every gas.
+    /// Prepare this step's advection through the current velocity: departure
+    /// points `x − ∫u dt` (SL) or frozen face velocities and sub-steps (QUICK).
+    ///
+    /// # Errors
+    /// As [`Advector::prepare`].
+    pub fn prepare_advection(&mut self) -> Result<(), CflError> {
+        self.advector.prepare(&self.velocity, self.params.dt)
+    }
+
+    /// Eq 6.4: `ρ ← advect(ρ) + S Δt` for every gas.
     pub fn advect_densities(&mut self) {
-        let (dep, p) = (&self.departures, self.params);
+        let p = self.params;
         for gas in &mut self.gases {
-            advection::interpolate_scalar(&gas.density, dep, &mut gas.scratch);
+            self.advector.density(&gas.density, &mut gas.scratch);
             std::mem::swap(&mut gas.density, &mut gas.scratch);
             gas.density
                 .as_slice_mut()
@@ -144,9 +199,9 @@ impl Simulation {
         }
     }
 
-    /// Eq 6.5, first term: `u ← u(x − uΔt)`.
+    /// Eq 6.5, first term: `u ← advect(u, u, Δt)`.
     pub fn advect_velocity(&mut self) {
-        advection::interpolate_vector(&self.velocity, &self.departures, &mut self.velocity_scratch);
+        self.advector.vector(&self.velocity, &mut self.velocity_scratch);
         std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
     }
 
@@ -177,5 +232,18 @@ impl Simulation {
         let p = self.params;
         self.projection
             .project(&mut self.velocity, p.viscosity, p.dt);
+    }
+
+    /// Eqs 6.6/6.7 on the obstacles, alternated with the (periodic) projection
+    /// [`Boundary::passes`] times and ending with the rule, so that after a
+    /// step no obstacle cell flows inward; the divergence left near obstacles
+    /// is what `metrics.csv` reports.
+    pub fn apply_boundary(&mut self) {
+        let Some(b) = &self.boundary else { return };
+        b.apply(&mut self.velocity);
+        for _ in 1..b.passes() {
+            self.projection.project(&mut self.velocity, 0.0, self.params.dt);
+            b.apply(&mut self.velocity);
+        }
     }
 }

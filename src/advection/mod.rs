@@ -62,8 +62,6 @@ impl Scheme {
 pub struct AdvectionOptions {
     /// Scheme for velocity and densities alike.
     pub scheme: Scheme,
-    /// Semi-Lagrangian backtrace (SL only).
-    pub backtrace: Backtrace,
     /// QUICK sub-stepping (QUICK only).
     pub quick: QuickOptions,
     /// QUICK limiter for densities (QUICK only; the velocity is never limited).
@@ -74,7 +72,6 @@ impl Default for AdvectionOptions {
     fn default() -> Self {
         Self {
             scheme: Scheme::Sl,
-            backtrace: Backtrace::default(),
             quick: QuickOptions::default(),
             density_limiter: Limiter::Ultimate,
         }
@@ -102,12 +99,12 @@ pub enum Advector {
 }
 
 impl Advector {
-    /// State for `options.scheme` on `domain`.
-    pub fn new(domain: Domain, options: &AdvectionOptions) -> Self {
+    /// State for `options.scheme` on `domain`; SL traces with `backtrace`.
+    pub fn new(domain: Domain, options: &AdvectionOptions, backtrace: Backtrace) -> Self {
         match options.scheme {
             Scheme::Sl => Advector::SemiLagrangian {
                 departures: Departures::new(domain),
-                backtrace: options.backtrace,
+                backtrace,
             },
             Scheme::Quick => Advector::Quick {
                 quick: Box::new(Quick::new(domain, options.quick)),
@@ -131,6 +128,15 @@ impl Advector {
                 Ok(())
             }
             Advector::Quick { quick, .. } => quick.prepare(vel, dt).map(|_| ()),
+        }
+    }
+
+    /// Mark obstacle cells. QUICK closes every face touching one (no flux
+    /// into or out of obstacles); the semi-Lagrangian scheme, as in the notes,
+    /// keeps interpolating across obstacles and relies on the boundary rule.
+    pub fn set_solid(&mut self, solid: &[bool]) {
+        if let Advector::Quick { quick, .. } = self {
+            quick.set_solid(solid);
         }
     }
 

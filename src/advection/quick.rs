@@ -48,10 +48,25 @@
 //! its initial range (for a divergence-free velocity), and never goes negative
 //! (for any velocity), as long as the Courant number is at most one.
 //!
-//! # Boundaries and performance
-//! The box is periodic, like the FFT projection; walls are obstacles
-//! (see [`crate::boundary`]). All scratch is allocated in [`Quick::new`];
-//! every pass runs over z-slabs with rayon.
+//! # Walls and obstacles
+//! The box is periodic, like the FFT projection; closed boxes and other
+//! obstacles are level sets ([`crate::boundary`]) whose cells are marked
+//! solid with [`Quick::set_solid`]. Every face touching a solid cell is
+//! *closed*: its face velocity is zero, so nothing is carried into or out of
+//! an obstacle (the finite-volume no-penetration condition; the fluid piles
+//! up against a wall instead of leaking through it). Where a QUICK stencil
+//! would reach across a closed face for its far-upwind cell U, it uses the
+//! mirror image of C instead (`U = C`, an even reflection at the wall), so
+//! the face value next to a wall is `5/8 q_C + 3/8 q_D`.
+//!
+//! Densities are advected in flux form (mass is conserved; gas piles up
+//! against a closed face). The velocity's components use the advective form
+//! `−∇·(U q) + q ∇·U`, identical wherever the face velocities are
+//! divergence-free, but without the spurious momentum source that the
+//! convergence at a closed face would otherwise create.
+//!
+//! All scratch is allocated in [`Quick::new`]; every pass runs over z-slabs
+//! with rayon.
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -186,13 +201,16 @@ impl Lattice {
 }
 
 /// QUICK face value for a face with signed Courant number `c`, given the four
-/// cells `q(m−1), q(m), q(m+1), q(m+2)` around the face `m+½`.
+/// cells `q(m−1), q(m), q(m+1), q(m+2)` around the face `m+½` and whether the
+/// faces `m−½` and `m+3/2` are open (a far-upwind cell behind a closed face
+/// is replaced by the mirror image of the upwind cell).
 #[inline(always)]
-fn face_value(c: f32, qm1: f32, q0: f32, qp1: f32, qp2: f32, limited: bool) -> f32 {
+fn face_value(c: f32, q: [f32; 4], open: [bool; 2], limited: bool) -> f32 {
+    let [qm1, q0, qp1, qp2] = q;
     let (u, cc, d) = if c >= 0.0 {
-        (qm1, q0, qp1)
+        (if open[0] { qm1 } else { q0 }, q0, qp1)
     } else {
-        (qp2, qp1, q0)
+        (if open[1] { qp2 } else { qp1 }, qp1, q0)
     };
     let v = 0.75 * cc + 0.375 * d - 0.125 * u;
     if limited {
@@ -200,6 +218,16 @@ fn face_value(c: f32, qm1: f32, q0: f32, qp1: f32, qp2: f32, limited: bool) -> f
     } else {
         v
     }
+}
+
+/// Which form of the advection operator a stage evaluates.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Form {
+    /// `−∇·(U q)`: conserves `Σ q` (densities).
+    Conservative,
+    /// `−∇·(U q) + q ∇·U = −U·∇q`: keeps constants constant even where the
+    /// face velocities diverge, e.g. at closed faces (the velocity's own components).
+    Advective,
 }
 
 /// How a stage's result `t = s + L(s)` is written.
@@ -231,6 +259,8 @@ pub struct Quick {
     /// Face Courant numbers of one sub-step, `U_f Δt / (Δx n_sub)`, on the
     /// upper faces of every cell, per axis.
     courant_faces: [Vec<f32>; 3],
+    /// Whether the upper face of every cell is open (no solid cell either side), per axis.
+    open: [Vec<bool>; 3],
     substeps: usize,
     courant: f32,
     passes: Passes,
@@ -257,6 +287,7 @@ impl Quick {
             lattice: Lattice::new(&domain),
             options,
             courant_faces: std::array::from_fn(|_| zeros()),
+            open: std::array::from_fn(|_| vec![true; n]),
             substeps: 1,
             courant: 0.0,
             passes: Passes {
@@ -273,6 +304,32 @@ impl Quick {
     /// The domain this advector works on.
     pub fn domain(&self) -> &Domain {
         &self.domain
+    }
+
+    /// Mark obstacle cells (`solid[n]`, `[z][y][x]` order): every face
+    /// touching one is closed from the next [`Self::prepare`] on.
+    ///
+    /// # Panics
+    /// If `solid` does not have one entry per cell.
+    pub fn set_solid(&mut self, solid: &[bool]) {
+        assert_eq!(solid.len(), self.domain.len(), "QUICK: solid mask of another size");
+        let lat = &self.lattice;
+        let [ox, oy, oz] = &mut self.open;
+        ox.par_chunks_mut(lat.slab())
+            .zip(oy.par_chunks_mut(lat.slab()))
+            .zip(oz.par_chunks_mut(lat.slab()))
+            .enumerate()
+            .for_each(|(k, ((ox, oy), oz))| {
+                for j in 0..lat.ny {
+                    for i in 0..lat.nx {
+                        let (n, g) = (j * lat.nx + i, lat.idx(i, j, k));
+                        let here = !solid[g];
+                        ox[n] = here && !solid[lat.idx(lat.x.at(i, 1), j, k)];
+                        oy[n] = here && !solid[lat.idx(i, lat.y.at(j, 1), k)];
+                        oz[n] = here && !solid[lat.idx(i, j, lat.z.at(k, 1))];
+                    }
+                }
+            });
     }
 
     /// Sub-steps of the prepared step.
@@ -306,6 +363,7 @@ impl Quick {
         let scale = 0.5 * dt / self.domain.cell;
         let u = vel.as_vec3();
         let [cx, cy, cz] = &mut self.courant_faces;
+        let open = &self.open;
         cx.par_chunks_mut(lat.slab())
             .zip(cy.par_chunks_mut(lat.slab()))
             .zip(cz.par_chunks_mut(lat.slab()))
@@ -316,10 +374,12 @@ impl Quick {
                     let jp = lat.y.at(j, 1);
                     for i in 0..lat.nx {
                         let n = j * lat.nx + i;
-                        let c = u[lat.idx(i, j, k)];
-                        fx[n] = scale * (c.x + u[lat.idx(lat.x.at(i, 1), j, k)].x);
-                        fy[n] = scale * (c.y + u[lat.idx(i, jp, k)].y);
-                        fz[n] = scale * (c.z + u[lat.idx(i, j, kp)].z);
+                        let g = lat.idx(i, j, k);
+                        let c = u[g];
+                        let f = |open: bool, v: f32| if open { scale * v } else { 0.0 };
+                        fx[n] = f(open[0][g], c.x + u[lat.idx(lat.x.at(i, 1), j, k)].x);
+                        fy[n] = f(open[1][g], c.y + u[lat.idx(i, jp, k)].y);
+                        fz[n] = f(open[2][g], c.z + u[lat.idx(i, j, kp)].z);
                     }
                 }
             });
@@ -418,7 +478,7 @@ impl Quick {
         );
         let out = dst.as_slice_mut();
         out.copy_from_slice(src.as_slice());
-        self.advance(out, limiter);
+        self.advance(out, limiter, Form::Conservative);
     }
 
     /// Advect every component of a vector grid through the prepared step
@@ -442,7 +502,7 @@ impl Quick {
             q.par_iter_mut()
                 .zip(src.as_slice().par_chunks(3))
                 .for_each(|(q, v)| *q = v[c]);
-            self.advance(&mut q, limiter);
+            self.advance(&mut q, limiter, Form::Advective);
             dst.as_slice_mut()
                 .par_chunks_mut(3)
                 .zip(q.par_iter())
@@ -452,7 +512,7 @@ impl Quick {
     }
 
     /// All sub-steps of the prepared step on `q`, in place.
-    fn advance(&mut self, q: &mut [f32], limiter: Limiter) {
+    fn advance(&mut self, q: &mut [f32], limiter: Limiter, form: Form) {
         assert!(
             self.substeps > 0,
             "QUICK: advect called without a successfully prepared step"
@@ -462,18 +522,20 @@ impl Quick {
         let mut s2 = std::mem::take(&mut self.stage2);
         for _ in 0..self.substeps {
             // SSP-RK3 (Shu–Osher).
-            self.stage(q, Blend::Replace, &mut s1, limited);
-            self.stage(&s1, Blend::With(q, 0.75), &mut s2, limited);
-            self.stage(&s2, Blend::InPlace(1.0 / 3.0), q, limited);
+            self.stage(q, Blend::Replace, &mut s1, limited, form);
+            self.stage(&s1, Blend::With(q, 0.75), &mut s2, limited, form);
+            self.stage(&s2, Blend::InPlace(1.0 / 3.0), q, limited, form);
         }
         self.stage1 = s1;
         self.stage2 = s2;
     }
 
     /// One forward-Euler stage `t = s + L(s)`, blended into `out`.
-    fn stage(&mut self, s: &[f32], blend: Blend, out: &mut [f32], limited: bool) {
+    fn stage(&mut self, s: &[f32], blend: Blend, out: &mut [f32], limited: bool, form: Form) {
+        let advective = form == Form::Advective;
         let lat = &self.lattice;
         let cf = &self.courant_faces;
+        let open = &self.open;
         let p = &mut self.passes;
         // Pass A: QUICK values on the upper faces of every cell.
         {
@@ -490,12 +552,17 @@ impl Quick {
                         for i in 0..lat.nx {
                             let n = j * lat.nx + i;
                             let g = row + i;
-                            let xs = [-1, 0, 1, 2].map(|d| s[row + lat.x.at(i, d)]);
-                            fx[n] = face_value(cf[0][g], xs[0], xs[1], xs[2], xs[3], limited);
-                            let ys = js.map(|jj| s[lat.idx(i, jj, k)]);
-                            fy[n] = face_value(cf[1][g], ys[0], ys[1], ys[2], ys[3], limited);
-                            let zs = ks.map(|kk| s[lat.idx(i, j, kk)]);
-                            fz[n] = face_value(cf[2][g], zs[0], zs[1], zs[2], zs[3], limited);
+                            let xi = [-1, 0, 1, 2].map(|d| row + lat.x.at(i, d));
+                            let yi = js.map(|jj| lat.idx(i, jj, k));
+                            let zi = ks.map(|kk| lat.idx(i, j, kk));
+                            for (a, (ix, f)) in [(xi, &mut fx[n]), (yi, &mut fy[n]), (zi, &mut fz[n])]
+                                .into_iter()
+                                .enumerate()
+                            {
+                                let q = ix.map(|m| s[m]);
+                                let o = [open[a][ix[0]], open[a][ix[2]]];
+                                *f = face_value(cf[a][g], q, o, limited);
+                            }
                         }
                     }
                 });
@@ -534,7 +601,7 @@ impl Quick {
                         (lat.idx(i, jm, k), lat.idx(i, lat.y.at(j, 1), k)),
                         (lat.idx(i, j, km), lat.idx(i, j, lat.z.at(k, 1))),
                     ];
-                    let mut div = 0.0f32;
+                    let (mut div, mut net) = (0.0f32, 0.0f32);
                     for (ax, (gm, gp)) in faces.into_iter().enumerate() {
                         // Upper face g+½ (between g and gp), lower face gm+½ (between gm and g).
                         let (cu, cl) = (cf[ax][g], cf[ax][gm]);
@@ -546,8 +613,13 @@ impl Quick {
                             vl = vl.max(lo[up]).min(hi[up]);
                         }
                         div += cu * vu - cl * vl;
+                        net += cu - cl;
                     }
-                    let t = s[g] - div;
+                    let t = if advective {
+                        s[g] - div + s[g] * net
+                    } else {
+                        s[g] - div
+                    };
                     let n = j * lat.nx + i;
                     out[n] = match q {
                         Some(q) => a * q[n] + (1.0 - a) * t,
@@ -676,13 +748,14 @@ mod tests {
     #[test]
     fn face_value_is_the_upwind_quadratic() {
         // Quadratic data q(m) = m² is reproduced exactly at the face m = ½.
-        let q = |m: f32| m * m;
-        let v = face_value(1.0, q(-1.0), q(0.0), q(1.0), q(2.0), false);
-        assert_eq!(v, 0.25);
-        let v = face_value(-1.0, q(-1.0), q(0.0), q(1.0), q(2.0), false);
-        assert_eq!(v, 0.25);
+        let q = [-1.0f32, 0.0, 1.0, 2.0].map(|m| m * m);
+        assert_eq!(face_value(1.0, q, [true; 2], false), 0.25);
+        assert_eq!(face_value(-1.0, q, [true; 2], false), 0.25);
+        // Behind a closed face the far-upwind cell mirrors the upwind one.
+        assert_eq!(face_value(1.0, q, [false, true], false), 0.375);
+        assert_eq!(face_value(-1.0, q, [true, false], false), 0.625);
         // The limited value stays between the face's two cells.
-        assert_eq!(face_value(1.0, 1.0, 0.0, 0.0, 0.0, true), 0.0);
+        assert_eq!(face_value(1.0, [1.0, 0.0, 0.0, 0.0], [true; 2], true), 0.0);
     }
 
     #[test]

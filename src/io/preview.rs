@@ -18,6 +18,8 @@ pub const RED: [f32; 3] = [1.0, 0.25, 0.1];
 pub const BLUE: [f32; 3] = [0.15, 0.35, 1.0];
 /// Buoyant gas green (fig 6.6).
 pub const GREEN: [f32; 3] = [0.2, 1.0, 0.3];
+/// Obstacles in previews.
+pub const GREY: [f32; 3] = [0.45, 0.45, 0.45];
 
 /// The slice `z = nz/2` of the layers, x to the right and y up, each pixel
 /// `Σ colour · (1 − exp(−gain ρ))`, upscaled by nearest neighbour so the
