@@ -83,6 +83,7 @@ fn metric_columns(sim: &Simulation) -> Vec<String> {
     cols.push("substeps".into());
     if sim.boundary.is_some() {
         cols.extend(Leak::COLUMNS.map(String::from));
+        cols.extend(["face_cg_iterations", "face_div_rel"].map(String::from));
     }
     cols.extend(["t_advect", "t_force", "t_project", "t_output"].map(String::from));
     cols
@@ -160,6 +161,8 @@ pub fn run<C: Serialize>(
         if let Some(b) = &sim.boundary {
             let densities: Vec<_> = sim.gases.iter().map(|g| &g.density).collect();
             row.extend(b.leak(&sim.velocity, &densities).row());
+            let (iterations, residual) = sim.advector().face_projection_stats().unwrap_or((0, 0.0));
+            row.extend([iterations as f64, residual as f64]);
         }
         row.extend([times.advect, times.force, times.project, times.output]);
         csv.push(&row);

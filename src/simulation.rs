@@ -201,7 +201,8 @@ impl Simulation {
 
     /// Eq 6.5, first term: `u ← advect(u, u, Δt)`.
     pub fn advect_velocity(&mut self) {
-        self.advector.vector(&self.velocity, &mut self.velocity_scratch);
+        self.advector
+            .vector(&self.velocity, &mut self.velocity_scratch);
         std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
     }
 
@@ -242,7 +243,8 @@ impl Simulation {
         let Some(b) = &self.boundary else { return };
         b.apply(&mut self.velocity);
         for _ in 1..b.passes() {
-            self.projection.project(&mut self.velocity, 0.0, self.params.dt);
+            self.projection
+                .project(&mut self.velocity, 0.0, self.params.dt);
             b.apply(&mut self.velocity);
         }
     }

@@ -11,6 +11,8 @@
 //! per-step state (departure points or frozen face velocities) so that every
 //! density and the velocity itself move through the same prepared step.
 
+mod closed_faces;
+mod lattice;
 pub mod quick;
 pub mod semi_lagrangian;
 
@@ -137,6 +139,16 @@ impl Advector {
     pub fn set_solid(&mut self, solid: &[bool]) {
         if let Advector::Quick { quick, .. } = self {
             quick.set_solid(solid);
+        }
+    }
+
+    /// QUICK's open-face projection of the prepared step around obstacles:
+    /// conjugate-gradient iterations and the remaining cell divergence
+    /// relative to the largest face Courant number (`None` for SL or without obstacles).
+    pub fn face_projection_stats(&self) -> Option<(usize, f32)> {
+        match self {
+            Advector::SemiLagrangian { .. } => None,
+            Advector::Quick { quick, .. } => quick.face_projection_stats(),
         }
     }
 

@@ -71,6 +71,8 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::closed_faces::FacePressure;
+use super::lattice::Lattice;
 use crate::domain::Domain;
 use crate::grid::{ScalarGrid, VectorGrid};
 
@@ -153,53 +155,6 @@ impl Default for QuickOptions {
     }
 }
 
-/// Wrapped neighbour indices along one periodic axis: `at(i, d)` is `(i + d) mod n`
-/// for `d ∈ −2..=2`.
-#[derive(Clone, Debug)]
-struct Axis(Vec<usize>);
-
-impl Axis {
-    fn new(n: usize) -> Self {
-        Self((0..n + 4).map(|m| (m + 2 * n - 2) % n).collect())
-    }
-    #[inline(always)]
-    fn at(&self, i: usize, d: isize) -> usize {
-        self.0[(i as isize + 2 + d) as usize]
-    }
-}
-
-/// Cell counts and wrapped neighbour tables.
-#[derive(Clone, Debug)]
-struct Lattice {
-    nx: usize,
-    ny: usize,
-    nz: usize,
-    x: Axis,
-    y: Axis,
-    z: Axis,
-}
-
-impl Lattice {
-    fn new(d: &Domain) -> Self {
-        let [nx, ny, nz] = d.dims;
-        Self {
-            nx,
-            ny,
-            nz,
-            x: Axis::new(nx),
-            y: Axis::new(ny),
-            z: Axis::new(nz),
-        }
-    }
-    #[inline(always)]
-    fn idx(&self, i: usize, j: usize, k: usize) -> usize {
-        (k * self.ny + j) * self.nx + i
-    }
-    fn slab(&self) -> usize {
-        self.nx * self.ny
-    }
-}
-
 /// QUICK face value for a face with signed Courant number `c`, given the four
 /// cells `q(m−1), q(m), q(m+1), q(m+2)` around the face `m+½` and whether the
 /// faces `m−½` and `m+3/2` are open (a far-upwind cell behind a closed face
@@ -261,6 +216,8 @@ pub struct Quick {
     courant_faces: [Vec<f32>; 3],
     /// Whether the upper face of every cell is open (no solid cell either side), per axis.
     open: [Vec<bool>; 3],
+    /// Makes the open faces divergence-free when there are obstacles.
+    pressure: Option<FacePressure>,
     substeps: usize,
     courant: f32,
     passes: Passes,
@@ -288,6 +245,7 @@ impl Quick {
             options,
             courant_faces: std::array::from_fn(|_| zeros()),
             open: std::array::from_fn(|_| vec![true; n]),
+            pressure: None,
             substeps: 1,
             courant: 0.0,
             passes: Passes {
@@ -312,7 +270,11 @@ impl Quick {
     /// # Panics
     /// If `solid` does not have one entry per cell.
     pub fn set_solid(&mut self, solid: &[bool]) {
-        assert_eq!(solid.len(), self.domain.len(), "QUICK: solid mask of another size");
+        assert_eq!(
+            solid.len(),
+            self.domain.len(),
+            "QUICK: solid mask of another size"
+        );
         let lat = &self.lattice;
         let [ox, oy, oz] = &mut self.open;
         ox.par_chunks_mut(lat.slab())
@@ -330,6 +292,16 @@ impl Quick {
                     }
                 }
             });
+        self.pressure = solid
+            .iter()
+            .any(|&s| s)
+            .then(|| FacePressure::new(&self.lattice, &self.open));
+    }
+
+    /// Conjugate-gradient iterations and relative residual of the last
+    /// open-face projection (`None` without obstacles).
+    pub fn face_projection_stats(&self) -> Option<(usize, f32)> {
+        self.pressure.as_ref().map(|p| (p.iterations, p.residual))
     }
 
     /// Sub-steps of the prepared step.
@@ -383,6 +355,9 @@ impl Quick {
                     }
                 }
             });
+        if let Some(pressure) = &mut self.pressure {
+            pressure.project(&self.lattice, &self.open, &mut self.courant_faces);
+        }
         let courant = self.max_cell_courant();
         self.courant = courant;
         if !courant.is_finite() {
@@ -555,9 +530,10 @@ impl Quick {
                             let xi = [-1, 0, 1, 2].map(|d| row + lat.x.at(i, d));
                             let yi = js.map(|jj| lat.idx(i, jj, k));
                             let zi = ks.map(|kk| lat.idx(i, j, kk));
-                            for (a, (ix, f)) in [(xi, &mut fx[n]), (yi, &mut fy[n]), (zi, &mut fz[n])]
-                                .into_iter()
-                                .enumerate()
+                            for (a, (ix, f)) in
+                                [(xi, &mut fx[n]), (yi, &mut fy[n]), (zi, &mut fz[n])]
+                                    .into_iter()
+                                    .enumerate()
                             {
                                 let q = ix.map(|m| s[m]);
                                 let o = [open[a][ix[0]], open[a][ix[2]]];

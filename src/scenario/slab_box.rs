@@ -242,7 +242,10 @@ impl SlabBoxConfig {
         {
             return Err(InputError::new(format!(
                 "slab {} – {} must be a non-empty box inside the walls' interior [{}, {}]³",
-                slab.min, slab.max, self.wall, self.size - self.wall
+                slab.min,
+                slab.max,
+                self.wall,
+                self.size - self.wall
             )));
         }
         let c = Vec3::from(self.source_center);
