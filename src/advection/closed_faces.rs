@@ -28,12 +28,22 @@ use super::lattice::Lattice;
 /// Residual target: the largest cell divergence (in Courant units, i.e. the
 /// fraction of a cell's volume gained per step) relative to the largest face
 /// Courant number.
-const TOLERANCE: f32 = 1e-5;
+const TOLERANCE: f32 = 1e-4;
+
+/// Bits of [`FacePressure::mask`]: which of a cell's six faces are open.
+const PX: u8 = 1;
+const MX: u8 = 2;
+const PY: u8 = 4;
+const MY: u8 = 8;
+const PZ: u8 = 16;
+const MZ: u8 = 32;
 
 /// Conjugate-gradient state of the open-face Poisson problem.
 pub(crate) struct FacePressure {
-    /// Number of open faces of each cell (the Jacobi preconditioner).
-    diag: Vec<f32>,
+    /// Open faces of every cell, as bits `PX … MZ`.
+    mask: Vec<u8>,
+    /// Inverse number of open faces of each cell (the Jacobi preconditioner; 0 if none).
+    inv_diag: Vec<f32>,
     /// The potential, kept between steps as the next initial guess.
     p: Vec<f32>,
     r: Vec<f32>,
@@ -46,33 +56,66 @@ pub(crate) struct FacePressure {
     pub(crate) residual: f32,
 }
 
-/// `(A x)_i = Σ_{open f} (x_i − x_nb)`: minus the open-face graph Laplacian.
-fn apply(lat: &Lattice, open: &[Vec<bool>; 3], x: &[f32], out: &mut [f32]) {
-    out.par_chunks_mut(lat.slab())
-        .enumerate()
-        .for_each(|(k, out)| {
-            for j in 0..lat.ny {
-                for i in 0..lat.nx {
-                    let g = lat.idx(i, j, k);
-                    let mut acc = 0.0f32;
-                    for (a, (gm, gp)) in lat.around(i, j, k).into_iter().enumerate() {
-                        if open[a][g] {
-                            acc += x[g] - x[gp];
-                        }
-                        if open[a][gm] {
-                            acc += x[g] - x[gm];
-                        }
-                    }
-                    out[j * lat.nx + i] = acc;
-                }
-            }
-        });
+/// Linear indices of the six neighbours of every cell of row `(j, k)`, in
+/// the order of the mask bits, built once per row.
+struct Row {
+    base: usize,
+    ym: usize,
+    yp: usize,
+    zm: usize,
+    zp: usize,
 }
 
-fn dot(a: &[f32], b: &[f32]) -> f64 {
-    a.par_iter()
-        .zip(b)
-        .map(|(x, y)| *x as f64 * *y as f64)
+impl Row {
+    fn new(lat: &Lattice, j: usize, k: usize) -> Self {
+        Self {
+            base: lat.idx(0, j, k),
+            ym: lat.idx(0, lat.y.at(j, -1), k),
+            yp: lat.idx(0, lat.y.at(j, 1), k),
+            zm: lat.idx(0, j, lat.z.at(k, -1)),
+            zp: lat.idx(0, j, lat.z.at(k, 1)),
+        }
+    }
+    /// `Σ_{open f} (x_i − x_nb)` for cell `i` of the row.
+    #[inline(always)]
+    fn minus_laplacian(&self, lat: &Lattice, m: u8, x: &[f32], i: usize) -> f32 {
+        if m == 0 {
+            return 0.0;
+        }
+        let xi = x[self.base + i];
+        let mut acc = 0.0f32;
+        let mut add = |bit: u8, nb: usize| {
+            if m & bit != 0 {
+                acc += xi - x[nb];
+            }
+        };
+        add(PX, self.base + lat.x.at(i, 1));
+        add(MX, self.base + lat.x.at(i, -1));
+        add(PY, self.yp + i);
+        add(MY, self.ym + i);
+        add(PZ, self.zp + i);
+        add(MZ, self.zm + i);
+        acc
+    }
+}
+
+/// `out = A x` with `A = −L`, the negated open-face graph Laplacian; returns `x·out`.
+fn apply(lat: &Lattice, mask: &[u8], x: &[f32], out: &mut [f32]) -> f64 {
+    out.par_chunks_mut(lat.slab())
+        .enumerate()
+        .map(|(k, out)| {
+            let mut dot = 0.0f64;
+            for j in 0..lat.ny {
+                let row = Row::new(lat, j, k);
+                for i in 0..lat.nx {
+                    let g = row.base + i;
+                    let v = row.minus_laplacian(lat, mask[g], x, i);
+                    out[j * lat.nx + i] = v;
+                    dot += (v * x[g]) as f64;
+                }
+            }
+            dot
+        })
         .sum()
 }
 
@@ -84,22 +127,36 @@ impl FacePressure {
     /// Solver state for the open faces `open` (upper face of every cell, per axis).
     pub(crate) fn new(lat: &Lattice, open: &[Vec<bool>; 3]) -> Self {
         let n = lat.nx * lat.ny * lat.nz;
-        let mut diag = vec![0.0f32; n];
-        for (k, chunk) in diag.chunks_mut(lat.slab()).enumerate() {
+        let mut mask = vec![0u8; n];
+        for k in 0..lat.nz {
             for j in 0..lat.ny {
                 for i in 0..lat.nx {
                     let g = lat.idx(i, j, k);
-                    let mut count = 0;
+                    let mut m = 0;
                     for (a, (gm, _)) in lat.around(i, j, k).into_iter().enumerate() {
-                        count += open[a][g] as u32 + open[a][gm] as u32;
+                        let (up, down) = [(PX, MX), (PY, MY), (PZ, MZ)][a];
+                        if open[a][g] {
+                            m |= up;
+                        }
+                        if open[a][gm] {
+                            m |= down;
+                        }
                     }
-                    chunk[j * lat.nx + i] = count as f32;
+                    mask[g] = m;
                 }
             }
         }
+        let inv_diag = mask
+            .iter()
+            .map(|m| match m.count_ones() {
+                0 => 0.0,
+                c => 1.0 / c as f32,
+            })
+            .collect();
         let zeros = || vec![0.0f32; n];
         Self {
-            diag,
+            mask,
+            inv_diag,
             p: zeros(),
             r: zeros(),
             z: zeros(),
@@ -121,66 +178,72 @@ impl FacePressure {
         let scale = faces.iter().map(|f| max_abs(f)).fold(0.0, f32::max);
         self.iterations = 0;
         self.residual = 0.0;
-        if scale == 0.0 {
+        if !(scale > 0.0 && scale.is_finite()) {
             self.p.fill(0.0);
             return;
         }
-        // r = b − A p with b = −div U (A = −L).
-        let div = &mut self.z;
-        div.par_chunks_mut(lat.slab())
+        // r = b − A p with b = −div U.
+        apply(lat, &self.mask, &self.p, &mut self.q);
+        self.r
+            .par_chunks_mut(lat.slab())
+            .zip(self.q.par_chunks(lat.slab()))
             .enumerate()
-            .for_each(|(k, out)| {
+            .for_each(|(k, (r, ap))| {
                 for j in 0..lat.ny {
                     for i in 0..lat.nx {
                         let g = lat.idx(i, j, k);
-                        let mut acc = 0.0f32;
+                        let mut div = 0.0f32;
                         for (a, (gm, _)) in lat.around(i, j, k).into_iter().enumerate() {
-                            acc += faces[a][g] - faces[a][gm];
+                            div += faces[a][g] - faces[a][gm];
                         }
-                        out[j * lat.nx + i] = acc;
+                        let n = j * lat.nx + i;
+                        r[n] = -div - ap[n];
                     }
                 }
             });
-        apply(lat, open, &self.p, &mut self.q);
-        self.r
-            .par_iter_mut()
-            .zip(self.z.par_iter().zip(&self.q))
-            .for_each(|(r, (div, ap))| *r = -div - ap);
         let target = TOLERANCE * scale;
         let max_iter = 20 * (lat.nx + lat.ny + lat.nz);
-        let precondition = |r: &[f32], diag: &[f32], z: &mut [f32]| {
-            z.par_iter_mut()
-                .zip(r.par_iter().zip(diag))
-                .for_each(|(z, (r, d))| *z = if *d > 0.0 { r / d } else { 0.0 });
+        // z = M⁻¹ r; returns (r·z, max|r|).
+        let precondition = |r: &[f32], inv_diag: &[f32], z: &mut [f32]| -> (f64, f32) {
+            z.par_chunks_mut(4096)
+                .zip(r.par_chunks(4096).zip(inv_diag.par_chunks(4096)))
+                .map(|(z, (r, w))| {
+                    let (mut rz, mut rmax) = (0.0f64, 0.0f32);
+                    for ((z, r), w) in z.iter_mut().zip(r).zip(w) {
+                        *z = r * w;
+                        rz += (*r * *z) as f64;
+                        rmax = rmax.max(r.abs());
+                    }
+                    (rz, rmax)
+                })
+                .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)))
         };
-        precondition(&self.r, &self.diag, &mut self.z);
+        let (mut rz, mut res) = precondition(&self.r, &self.inv_diag, &mut self.z);
         self.d.copy_from_slice(&self.z);
-        let mut rz = dot(&self.r, &self.z);
-        let mut res = max_abs(&self.r);
         while res > target && self.iterations < max_iter {
-            apply(lat, open, &self.d, &mut self.q);
-            let dq = dot(&self.d, &self.q);
+            let dq = apply(lat, &self.mask, &self.d, &mut self.q);
             if dq <= 0.0 {
                 break;
             }
             let alpha = (rz / dq) as f32;
             self.p
-                .par_iter_mut()
-                .zip(&self.d)
-                .for_each(|(p, d)| *p += alpha * d);
-            self.r
-                .par_iter_mut()
-                .zip(&self.q)
-                .for_each(|(r, q)| *r -= alpha * q);
-            precondition(&self.r, &self.diag, &mut self.z);
-            let rz_new = dot(&self.r, &self.z);
+                .par_chunks_mut(4096)
+                .zip(self.r.par_chunks_mut(4096))
+                .zip(self.d.par_chunks(4096).zip(self.q.par_chunks(4096)))
+                .for_each(|((p, r), (d, q))| {
+                    for (((p, r), d), q) in p.iter_mut().zip(r.iter_mut()).zip(d).zip(q) {
+                        *p += alpha * d;
+                        *r -= alpha * q;
+                    }
+                });
+            let (rz_new, rmax) = precondition(&self.r, &self.inv_diag, &mut self.z);
             let beta = (rz_new / rz) as f32;
             rz = rz_new;
+            res = rmax;
             self.d
                 .par_iter_mut()
                 .zip(&self.z)
                 .for_each(|(d, z)| *d = z + beta * *d);
-            res = max_abs(&self.r);
             self.iterations += 1;
         }
         self.residual = res / scale;
