@@ -8,6 +8,8 @@
 
 #[path = "06_1_hot_cold_gridded.rs"]
 mod hot_cold_gridded;
+#[path = "06_6_slab_box.rs"]
+mod slab_box;
 
 use std::path::PathBuf;
 
@@ -52,7 +54,7 @@ pub struct Experiment {
 }
 
 /// Every experiment, in the notes' order.
-pub const ALL: &[Experiment] = &[hot_cold_gridded::EXPERIMENT];
+pub const ALL: &[Experiment] = &[hot_cold_gridded::EXPERIMENT, slab_box::EXPERIMENT];
 
 /// The ids of all experiments.
 pub fn ids() -> Vec<&'static str> {

@@ -67,3 +67,19 @@ pub fn side_by_side(images: &[RgbImage], gap: u32) -> RgbImage {
     }
     out
 }
+
+/// Images one above another with a `gap`-pixel dark separator.
+///
+/// # Panics
+/// If `images` is empty.
+pub fn stacked(images: &[RgbImage], gap: u32) -> RgbImage {
+    let w = images.iter().map(|i| i.width()).max().expect("no images");
+    let h: u32 = images.iter().map(|i| i.height()).sum::<u32>() + gap * (images.len() as u32 - 1);
+    let mut out = RgbImage::from_pixel(w, h, Rgb([40, 40, 40]));
+    let mut y0 = 0;
+    for img in images {
+        image::imageops::replace(&mut out, img, 0, y0 as i64);
+        y0 += img.height() + gap;
+    }
+    out
+}

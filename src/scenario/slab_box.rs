@@ -80,7 +80,7 @@ pub struct SlabBoxConfig {
 impl Default for SlabBoxConfig {
     fn default() -> Self {
         Self {
-            res: 48,
+            res: 50,
             size: 10.0,
             frames: 200,
             dt: 0.1,
@@ -93,7 +93,7 @@ impl Default for SlabBoxConfig {
             slab_max: [7.5, 6.3, 8.5],
             boundary: BoundaryRule::Reflect,
             alpha: 0.5,
-            boundary_passes: 1,
+            boundary_passes: 4,
             backtrace: Backtrace::Rk2,
             advection: Scheme::Quick,
             substeps: true,
