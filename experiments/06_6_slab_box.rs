@@ -8,23 +8,24 @@
 //!
 //! 1. QUICK, reflecting walls (eq 6.6);
 //! 2. QUICK, sticky walls with α = 0.5 (eq 6.7);
-//! 3. semi-Lagrangian, reflecting — the notes' own advection, for comparison
-//!    of dissipation and leakage.
+//! 3. semi-Lagrangian, reflecting, and
+//! 4. semi-Lagrangian, sticky with α = 0.5 — the notes' own advection, for
+//!    comparison of dissipation and leakage.
 //!
 //! The notes do not give fig 6.6's grid; `--full` uses 50³, the resolution of
 //! their other chapter-6 runs, and 200 frames. The default run is reduced to
-//! **40³** (same 200 frames and physical setup) so that all three cases
+//! **40³** (same 200 frames and physical setup) so that all four cases
 //! finish in about two minutes on 2 cores; `--smoke` is 26³ and 12 frames.
 //!
 //! Run: `smokelab experiment 06-6` (`--full`, `--smoke`).
 //!
-//! Writes `results/06-6/`: `fig_6_6.png` (the three rows), `data.csv` (one
+//! Writes `results/06-6/`: `fig_6_6.png` (the four rows), `data.csv` (one
 //! line per case: the largest density fraction deeper than one cell inside
 //! obstacles, the largest rim inward velocity after a step, the mean fluid
 //! divergence, final vs injected mass, the relative L2 difference of the final
 //! density from the first row's, the mean conjugate-gradient iterations of
 //! QUICK's open-face projection, wall time), and per case a
-//! folder (`quick-reflect/`, `quick-sticky/`, `sl-reflect/`) with
+//! folder (`quick-reflect/`, `quick-sticky/`, `sl-reflect/`, `sl-sticky/`) with
 //! `metrics.csv`, `manifest.json`, `preview_NNNN.png` and the volumes
 //! (`density_NNNN.npy`, `vel_NNNN.npy`, `obstacle.npy`; git-ignored).
 
@@ -47,7 +48,7 @@ use crate::scenario::slab_box::SlabBoxConfig;
 pub const EXPERIMENT: Experiment = Experiment {
     id: "06-6",
     reproduces: "fig 6.6",
-    title: "buoyant gas in a box around a slab; QUICK reflect/sticky, SL reflect",
+    title: "buoyant gas in a box around a slab; reflect/sticky, QUICK and SL",
     cost: "~2 min",
     run,
 };
@@ -63,7 +64,7 @@ struct Case {
     alpha: f32,
 }
 
-const CASES: [Case; 3] = [
+const CASES: [Case; 4] = [
     Case {
         name: "quick-reflect",
         advection: Scheme::Quick,
@@ -81,6 +82,12 @@ const CASES: [Case; 3] = [
         advection: Scheme::Sl,
         rule: BoundaryRule::Reflect,
         alpha: 1.0,
+    },
+    Case {
+        name: "sl-sticky",
+        advection: Scheme::Sl,
+        rule: BoundaryRule::Sticky,
+        alpha: 0.5,
     },
 ];
 

@@ -17,7 +17,7 @@
 //! - [`convergence`] — observed order of accuracy for convergence tests;
 //! - [`timing`] — stage timers, peak memory;
 //! - [`simulation`] — the time step;
-//! - [`scenario`] — hot/cold (§6.1.1);
+//! - [`scenario`] — hot/cold (§6.1.1), slab in a box (§6.3, fig 6.6);
 //! - [`io`] — atomic `.npy`/PNG/JSON/CSV writers, manifests, previews;
 //! - [`run`] — driving a simulation through its frames;
 //! - [`experiments`] — numbered reproductions of the notes' figures;

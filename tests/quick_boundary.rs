@@ -625,5 +625,24 @@ fn experiment_06_6_smoke_writes_figure_and_data() {
         assert!(e.join(f).is_file(), "missing {f}");
     }
     let data = std::fs::read_to_string(e.join("data.csv")).unwrap();
-    assert_eq!(data.lines().count(), 4, "{data}");
+    assert_eq!(data.lines().count(), 5, "{data}");
+}
+
+#[test]
+fn advection_and_boundary_are_config_keys() {
+    let c: HotColdConfig =
+        toml::from_str("advection = \"quick\"\nsubsteps = false\nlimiter = \"none\"\n").unwrap();
+    assert_eq!(
+        (c.advection, c.substeps, c.limiter),
+        (Scheme::Quick, false, Limiter::None)
+    );
+    let c: SlabBoxConfig = toml::from_str(
+        "advection = \"sl\"\nboundary = \"sticky\"\nalpha = 0.25\nboundary_passes = 2\n",
+    )
+    .unwrap();
+    assert_eq!(
+        (c.advection, c.boundary, c.alpha, c.boundary_passes),
+        (Scheme::Sl, BoundaryRule::Sticky, 0.25, 2)
+    );
+    assert!(toml::from_str::<SlabBoxConfig>("boundary = \"bouncy\"\n").is_err());
 }

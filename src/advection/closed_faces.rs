@@ -56,47 +56,25 @@ pub(crate) struct FacePressure {
     pub(crate) residual: f32,
 }
 
-/// Linear indices of the six neighbours of every cell of row `(j, k)`, in
-/// the order of the mask bits, built once per row.
-struct Row {
-    base: usize,
-    ym: usize,
-    yp: usize,
-    zm: usize,
-    zp: usize,
-}
-
-impl Row {
-    fn new(lat: &Lattice, j: usize, k: usize) -> Self {
-        Self {
-            base: lat.idx(0, j, k),
-            ym: lat.idx(0, lat.y.at(j, -1), k),
-            yp: lat.idx(0, lat.y.at(j, 1), k),
-            zm: lat.idx(0, j, lat.z.at(k, -1)),
-            zp: lat.idx(0, j, lat.z.at(k, 1)),
+/// `Σ_{open f} (x_i − x_nb)` for cell `g` with open-face bits `m` and
+/// neighbours `nb` (below, above per axis).
+#[inline(always)]
+fn minus_laplacian(m: u8, x: &[f32], g: usize, nb: [(usize, usize); 3]) -> f32 {
+    if m == 0 {
+        return 0.0;
+    }
+    let xi = x[g];
+    let mut acc = 0.0f32;
+    for (a, (gm, gp)) in nb.into_iter().enumerate() {
+        let (up, down) = [(PX, MX), (PY, MY), (PZ, MZ)][a];
+        if m & up != 0 {
+            acc += xi - x[gp];
+        }
+        if m & down != 0 {
+            acc += xi - x[gm];
         }
     }
-    /// `Σ_{open f} (x_i − x_nb)` for cell `i` of the row.
-    #[inline(always)]
-    fn minus_laplacian(&self, lat: &Lattice, m: u8, x: &[f32], i: usize) -> f32 {
-        if m == 0 {
-            return 0.0;
-        }
-        let xi = x[self.base + i];
-        let mut acc = 0.0f32;
-        let mut add = |bit: u8, nb: usize| {
-            if m & bit != 0 {
-                acc += xi - x[nb];
-            }
-        };
-        add(PX, self.base + lat.x.at(i, 1));
-        add(MX, self.base + lat.x.at(i, -1));
-        add(PY, self.yp + i);
-        add(MY, self.ym + i);
-        add(PZ, self.zp + i);
-        add(MZ, self.zm + i);
-        acc
-    }
+    acc
 }
 
 /// `out = A x` with `A = −L`, the negated open-face graph Laplacian; returns `x·out`.
@@ -106,10 +84,10 @@ fn apply(lat: &Lattice, mask: &[u8], x: &[f32], out: &mut [f32]) -> f64 {
         .map(|(k, out)| {
             let mut dot = 0.0f64;
             for j in 0..lat.ny {
-                let row = Row::new(lat, j, k);
+                let row = lat.row(j, k);
                 for i in 0..lat.nx {
                     let g = row.base + i;
-                    let v = row.minus_laplacian(lat, mask[g], x, i);
+                    let v = minus_laplacian(mask[g], x, g, row.around(lat, i));
                     out[j * lat.nx + i] = v;
                     dot += (v * x[g]) as f64;
                 }

@@ -48,6 +48,18 @@ impl Lattice {
     pub(crate) fn slab(&self) -> usize {
         self.nx * self.ny
     }
+    /// Neighbour bases of row `(j, k)`.
+    #[inline(always)]
+    pub(crate) fn row(&self, j: usize, k: usize) -> Row {
+        Row {
+            base: self.idx(0, j, k),
+            ym: self.idx(0, self.y.at(j, -1), k),
+            yp: self.idx(0, self.y.at(j, 1), k),
+            zm: self.idx(0, j, self.z.at(k, -1)),
+            zp: self.idx(0, j, self.z.at(k, 1)),
+        }
+    }
+
     /// Per axis, the linear indices of the cells below and above `(i, j, k)`.
     #[inline(always)]
     pub(crate) fn around(&self, i: usize, j: usize, k: usize) -> [(usize, usize); 3] {
@@ -64,6 +76,30 @@ impl Lattice {
                 self.idx(i, j, self.z.at(k, -1)),
                 self.idx(i, j, self.z.at(k, 1)),
             ),
+        ]
+    }
+}
+
+/// Linear indices of the first cell of a row `(j, k)` and of its four
+/// neighbouring rows, so that the neighbours of cell `i` cost one table
+/// lookup along x and additions otherwise.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Row {
+    pub(crate) base: usize,
+    ym: usize,
+    yp: usize,
+    zm: usize,
+    zp: usize,
+}
+
+impl Row {
+    /// Per axis, the cells below and above cell `i` of the row.
+    #[inline(always)]
+    pub(crate) fn around(&self, lat: &Lattice, i: usize) -> [(usize, usize); 3] {
+        [
+            (self.base + lat.x.at(i, -1), self.base + lat.x.at(i, 1)),
+            (self.ym + i, self.yp + i),
+            (self.zm + i, self.zp + i),
         ]
     }
 }

@@ -551,45 +551,61 @@ impl Quick {
                 .enumerate()
                 .for_each(|(k, (lo, hi))| {
                     for j in 0..lat.ny {
+                        let row = lat.row(j, k);
                         for i in 0..lat.nx {
-                            let (l, h) = outflow_bounds(lat, cf, face, s, i, j, k);
+                            let g = row.base + i;
+                            let (l, h) = outflow_bounds(cf, face, s, g, row.around(lat, i));
                             lo[j * lat.nx + i] = l;
                             hi[j * lat.nx + i] = h;
                         }
                     }
                 });
         }
-        // Pass C: flux divergence and the blend.
-        let (face, lo, hi) = (&p.face, &p.lo, &p.hi);
+        // Pass C: the flux through every upper face, each computed once
+        // (limited values clamped by the face's upwind cell).
+        {
+            let (lo, hi) = (&p.lo, &p.hi);
+            let [fx, fy, fz] = &mut p.face;
+            fx.par_chunks_mut(lat.slab())
+                .zip(fy.par_chunks_mut(lat.slab()))
+                .zip(fz.par_chunks_mut(lat.slab()))
+                .enumerate()
+                .for_each(|(k, ((fx, fy), fz))| {
+                    for j in 0..lat.ny {
+                        let row = lat.row(j, k);
+                        for i in 0..lat.nx {
+                            let (n, g) = (j * lat.nx + i, row.base + i);
+                            let around = row.around(lat, i);
+                            for (a, f) in
+                                [&mut fx[n], &mut fy[n], &mut fz[n]].into_iter().enumerate()
+                            {
+                                let c = cf[a][g];
+                                let v = if limited {
+                                    let up = if c > 0.0 { g } else { around[a].1 };
+                                    f.max(lo[up]).min(hi[up])
+                                } else {
+                                    *f
+                                };
+                                *f = c * v;
+                            }
+                        }
+                    }
+                });
+        }
+        // Pass D: flux divergence and the blend.
+        let flux = &p.face;
         let slab = lat.slab();
         let update = |k: usize, out: &mut [f32], q: Option<&[f32]>, a: f32| {
-            let km = lat.z.at(k, -1);
             for j in 0..lat.ny {
-                let jm = lat.y.at(j, -1);
+                let row = lat.row(j, k);
                 for i in 0..lat.nx {
-                    let g = lat.idx(i, j, k);
-                    // Per axis: the cells below and above g.
-                    let faces = [
-                        (
-                            lat.idx(lat.x.at(i, -1), j, k),
-                            lat.idx(lat.x.at(i, 1), j, k),
-                        ),
-                        (lat.idx(i, jm, k), lat.idx(i, lat.y.at(j, 1), k)),
-                        (lat.idx(i, j, km), lat.idx(i, j, lat.z.at(k, 1))),
-                    ];
+                    let g = row.base + i;
                     let (mut div, mut net) = (0.0f32, 0.0f32);
-                    for (ax, (gm, gp)) in faces.into_iter().enumerate() {
-                        // Upper face g+½ (between g and gp), lower face gm+½ (between gm and g).
-                        let (cu, cl) = (cf[ax][g], cf[ax][gm]);
-                        let (mut vu, mut vl) = (face[ax][g], face[ax][gm]);
-                        if limited {
-                            let up = if cu > 0.0 { g } else { gp };
-                            vu = vu.max(lo[up]).min(hi[up]);
-                            let up = if cl > 0.0 { gm } else { g };
-                            vl = vl.max(lo[up]).min(hi[up]);
+                    for (ax, (gm, _)) in row.around(lat, i).into_iter().enumerate() {
+                        div += flux[ax][g] - flux[ax][gm];
+                        if advective {
+                            net += cf[ax][g] - cf[ax][gm];
                         }
-                        div += cu * vu - cl * vl;
-                        net += cu - cl;
                     }
                     let t = if advective {
                         s[g] - div + s[g] * net
@@ -623,7 +639,7 @@ impl Quick {
     }
 }
 
-/// Limiter pass for cell `(i, j, k)`: bounds `[lo, hi]` on the values of its
+/// Limiter pass for cell `g` with `neighbours` (below, above per axis): bounds `[lo, hi]` on the values of its
 /// outflow faces such that its forward-Euler update stays within the range of
 /// itself and its upwind neighbours, whatever the neighbours do to its inflow
 /// faces (a face value only ever moves toward its upwind cell).
@@ -637,30 +653,13 @@ impl Quick {
 /// allowed; it is non-negative for any velocity at `C_out ≤ 1`).
 #[inline(always)]
 fn outflow_bounds(
-    lat: &Lattice,
     cf: &[Vec<f32>; 3],
     face: &[Vec<f32>; 3],
     s: &[f32],
-    i: usize,
-    j: usize,
-    k: usize,
+    g: usize,
+    neighbours: [(usize, usize); 3],
 ) -> (f32, f32) {
-    let g = lat.idx(i, j, k);
     let q = s[g];
-    let neighbours = [
-        (
-            lat.idx(lat.x.at(i, -1), j, k),
-            lat.idx(lat.x.at(i, 1), j, k),
-        ),
-        (
-            lat.idx(i, lat.y.at(j, -1), k),
-            lat.idx(i, lat.y.at(j, 1), k),
-        ),
-        (
-            lat.idx(i, j, lat.z.at(k, -1)),
-            lat.idx(i, j, lat.z.at(k, 1)),
-        ),
-    ];
     let (mut qmin, mut qmax) = (q, q);
     let (mut c_out, mut in_min, mut in_max) = (0.0f32, 0.0f32, 0.0f32);
     let mut inflow = |c: f32, v: f32, nb: f32| {
