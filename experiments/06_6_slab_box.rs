@@ -15,7 +15,8 @@
 //! The notes do not give fig 6.6's grid; `--full` uses 50³, the resolution of
 //! their other chapter-6 runs, and 200 frames. The default run is reduced to
 //! **40³** (same 200 frames and physical setup) so that all four cases
-//! finish in about two minutes on 2 cores; `--smoke` is 26³ and 12 frames.
+//! finish in about 30 s on an idle 2-core machine (80 s with other builds
+//! running); `--full` takes about twice as long; `--smoke` is 26³ and 12 frames.
 //!
 //! Run: `smokelab experiment 06-6` (`--full`, `--smoke`).
 //!
@@ -49,7 +50,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     id: "06-6",
     reproduces: "fig 6.6",
     title: "buoyant gas in a box around a slab; reflect/sticky, QUICK and SL",
-    cost: "~2 min",
+    cost: "~30 s",
     run,
 };
 
