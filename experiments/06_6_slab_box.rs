@@ -48,6 +48,7 @@ use crate::scenario::slab_box::SlabBoxConfig;
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
     id: "06-6",
+    folder: "06-6",
     reproduces: "fig 6.6",
     title: "buoyant gas in a box around a slab; reflect/sticky, QUICK and SL",
     cost: "~30 s",
@@ -135,6 +136,7 @@ fn run(ctx: &Context) -> Result<()> {
             frames: config.frames,
             save: SaveFrames::List(saved.clone()),
             progress: ctx.progress,
+            render: None,
         };
         let summary = run::run(&mut sim, &opts, config, config.seed)?;
         let m = column_stats(&out.join("metrics.csv"))?;

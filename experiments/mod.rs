@@ -6,6 +6,10 @@
 //! `smokelab experiment --list`. Every experiment writes into `results/<id>/`
 //! by default: images, `data.csv` or `metrics.csv`, and `manifest.json`.
 
+#[path = "A_2_fournier_forand.rs"]
+mod fournier_forand;
+#[path = "A_1_henyey_greenstein.rs"]
+mod henyey_greenstein;
 #[path = "06_1_hot_cold_gridded.rs"]
 mod hot_cold_gridded;
 #[path = "06_6_slab_box.rs"]
@@ -43,6 +47,8 @@ pub struct Context {
 pub struct Experiment {
     /// Id used on the command line, e.g. `06-1`.
     pub id: &'static str,
+    /// Folder under `results/` it writes to by default (usually the id).
+    pub folder: &'static str,
     /// The figures of the notes it reproduces.
     pub reproduces: &'static str,
     /// One line on what it shows.
@@ -54,7 +60,12 @@ pub struct Experiment {
 }
 
 /// Every experiment, in the notes' order.
-pub const ALL: &[Experiment] = &[hot_cold_gridded::EXPERIMENT, slab_box::EXPERIMENT];
+pub const ALL: &[Experiment] = &[
+    hot_cold_gridded::EXPERIMENT,
+    slab_box::EXPERIMENT,
+    henyey_greenstein::EXPERIMENT,
+    fournier_forand::EXPERIMENT,
+];
 
 /// The ids of all experiments.
 pub fn ids() -> Vec<&'static str> {

@@ -35,6 +35,8 @@ pub enum Command {
     Run(RunArgs),
     /// Run a numbered experiment that reproduces a figure of the notes.
     Experiment(ExperimentArgs),
+    /// Render saved density volumes (.npy) to EXR and PNG.
+    Render(crate::render::command::RenderArgs),
 }
 
 /// `smokelab run`.
@@ -100,6 +102,18 @@ pub struct RunArgs {
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Volume-render frames to render_NNNN.exr/.png.
+    #[arg(long)]
+    pub render: bool,
+    /// Render every K frames and the last (default: --save-every).
+    #[arg(long, requires = "render", allow_negative_numbers = true)]
+    pub render_every: Option<usize>,
+    /// Render image size WxH (default 256x256).
+    #[arg(long, requires = "render")]
+    pub image: Option<String>,
+    /// Render march step Δs (default: the cell size).
+    #[arg(long, requires = "render", allow_negative_numbers = true)]
+    pub march_step: Option<f32>,
 }
 
 impl Default for RunArgs {
@@ -125,6 +139,10 @@ impl Default for RunArgs {
             out: None,
             threads: None,
             quiet: false,
+            render: false,
+            render_every: None,
+            image: None,
+            march_step: None,
         }
     }
 }
@@ -223,6 +241,10 @@ pub fn execute(cli: Cli) -> Result<()> {
         None => run_scenario(&RunArgs::default()),
         Some(Command::Run(args)) => run_scenario(&args),
         Some(Command::Experiment(args)) => run_experiment(&args),
+        Some(Command::Render(args)) => {
+            init_threads(args.threads)?;
+            crate::render::command::run(&args)
+        }
     }
 }
 
@@ -236,6 +258,7 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
                 .clone()
                 .unwrap_or_else(|| default_run_dir("hot-cold"));
             io::check_output_dir(&out)?;
+            let render = crate::render::frames::FrameRender::from_run_flags(args, &config)?;
             let mut sim = config.build()?;
             io::create_output_dir(&out)?;
             let opts = RunOptions {
@@ -243,6 +266,7 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
                 frames: config.frames,
                 save: SaveFrames::Every(config.save_every),
                 progress: !args.quiet,
+                render,
             };
             let summary = run::run(&mut sim, &opts, &config, config.seed)?;
             println!(
@@ -255,6 +279,12 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
         }
         ScenarioKind::SlabBox => {
             let config = args.slab_box_config()?;
+            if args.render {
+                return Err(InputError::new(
+                    "--render is not available for slab-box yet; use the slices (preview_NNNN.png) or `smokelab render` on the volumes",
+                )
+                .into());
+            }
             let out = args
                 .out
                 .clone()
@@ -267,6 +297,7 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
                 frames: config.frames,
                 save: SaveFrames::Every(config.save_every),
                 progress: !args.quiet,
+                render: None,
             };
             let summary = run::run(&mut sim, &opts, &config, config.seed)?;
             println!(
@@ -305,7 +336,7 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     let out = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from("results").join(exp.id));
+        .unwrap_or_else(|| PathBuf::from("results").join(exp.folder));
     io::check_output_dir(&out)?;
     let ctx = experiments::Context {
         out: out.clone(),

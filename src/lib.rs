@@ -16,9 +16,11 @@
 //! - [`boundary`] — level-set obstacles, reflecting and sticky rules (eqs 6.6–6.7);
 //! - [`convergence`] — observed order of accuracy for convergence tests;
 //! - [`timing`] — stage timers, peak memory;
+//! - [`plot`] — line plots (PNG + SVG) for the experiments;
 //! - [`simulation`] — the time step;
 //! - [`scenario`] — hot/cold (§6.1.1), slab in a box (§6.3, fig 6.6);
 //! - [`io`] — atomic `.npy`/PNG/JSON/CSV writers, manifests, previews;
+//! - [`render`] — the volume ray marcher (appendix A), EXR/PNG output;
 //! - [`run`] — driving a simulation through its frames;
 //! - [`experiments`] — numbered reproductions of the notes' figures;
 //! - [`cli`] — the `smokelab` command line.
@@ -46,7 +48,9 @@ pub mod field;
 pub mod grid;
 pub mod io;
 pub mod metrics;
+pub mod plot;
 pub mod projection;
+pub mod render;
 pub mod run;
 pub mod scenario;
 pub mod simulation;

@@ -17,6 +17,10 @@
 //!   to the central difference and would survive as a checkerboard, so every
 //!   mode with a Nyquist index on any axis is set to zero.
 //!
+//! [`Operator::Spectral`] projects with the exact wavenumbers `k` instead:
+//! spectrally accurate for band-limited data (the convergence suite uses it),
+//! but then the central-difference divergence is only small, not zero.
+//!
 //! Optional viscosity is applied exactly per mode, `û ← û exp(−ν |k|² Δt)`
 //! with the exact wavenumber, which solves `∂u/∂t = ν ∇²u` over Δt.
 //!
@@ -37,6 +41,17 @@ use rustfft::{Fft, FftPlanner};
 use crate::domain::Domain;
 use crate::grid::VectorGrid;
 
+/// Which divergence operator the projector annihilates.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Operator {
+    /// Central differences on the collocated grid, `k̃ = sin(kΔx)/Δx` (the
+    /// divergence smokelab reports).
+    #[default]
+    CentralDifference,
+    /// The exact derivative, `k̃ = k`.
+    Spectral,
+}
+
 /// Planned transforms and scratch for projecting velocity grids on one domain.
 pub struct Projection {
     domain: Domain,
@@ -52,7 +67,8 @@ pub struct Projection {
     slabs: [Vec<Complex32>; 3],
     /// Per component, full 3D spectra, layout `[ky][kx][kz]`.
     columns: [Vec<Complex32>; 3],
-    /// Discrete wavenumbers `k̃ = sin(kΔx)/Δx` per axis and index.
+    /// Wavenumbers of the divergence operator (`k̃ = sin(kΔx)/Δx` for central
+    /// differences) per axis and index.
     k_discrete: [Vec<f32>; 3],
     /// Exact `k²` per axis and index, for viscosity.
     k_squared: [Vec<f32>; 3],
@@ -70,8 +86,14 @@ fn signed_index(m: usize, n: usize) -> i64 {
 }
 
 impl Projection {
-    /// Plan the transforms and allocate the spectra for `domain`.
+    /// Plan the transforms and allocate the spectra for `domain`, projecting
+    /// onto fields free of the central-difference divergence.
     pub fn new(domain: Domain) -> Self {
+        Self::with_operator(domain, Operator::CentralDifference)
+    }
+
+    /// Plan for `domain` with the given divergence operator.
+    pub fn with_operator(domain: Domain, operator: Operator) -> Self {
         let [nx, ny, nz] = domain.dims;
         let nxh = nx / 2 + 1;
         let mut real = RealFftPlanner::<f32>::new();
@@ -85,7 +107,10 @@ impl Projection {
         let per_axis = |f: &dyn Fn(usize, usize) -> f32| -> [Vec<f32>; 3] {
             std::array::from_fn(|a| (0..bins[a]).map(|m| f(a, m)).collect())
         };
-        let k_discrete = per_axis(&|a, m| (k_of(a, m) * dx).sin() / dx);
+        let k_discrete = match operator {
+            Operator::CentralDifference => per_axis(&|a, m| (k_of(a, m) * dx).sin() / dx),
+            Operator::Spectral => per_axis(&k_of),
+        };
         let k_squared = per_axis(&|a, m| k_of(a, m).powi(2));
         let nyquist = std::array::from_fn(|a| {
             let n = domain.dims[a];

@@ -4,6 +4,7 @@
 //! - `<gas>_NNNN.npy` — f32 `(nz, ny, nx)` density at the cell centres;
 //! - `vel_NNNN.npy` — f32 `(nz, ny, nx, 3)` velocity, as the projection left it;
 //! - `preview_NNNN.png` — mid-plane slice of the gases (obstacles grey);
+//! - `render_NNNN.exr`, `render_NNNN.png` — volume renders (with `--render`);
 //! - `obstacle.npy` — f32 `(nz, ny, nx)` obstacle level set at the cell
 //!   centres, positive inside, world units (runs with obstacles);
 //! - `metrics.csv` — one row per step, rewritten whole at every saved frame;
@@ -21,6 +22,7 @@ use serde::Serialize;
 use crate::boundary::Leak;
 use crate::io::{self, manifest::Manifest, preview, CsvLog};
 use crate::metrics;
+use crate::render::frames::{FrameRecord, FrameRender};
 use crate::simulation::Simulation;
 use crate::timing::timed;
 
@@ -35,6 +37,8 @@ pub struct RunOptions {
     pub save: SaveFrames,
     /// Show a progress bar on stderr.
     pub progress: bool,
+    /// Frames to volume-render, and how (`None`: no renders).
+    pub render: Option<FrameRender>,
 }
 
 /// The frames whose volumes and previews are written.
@@ -47,7 +51,8 @@ pub enum SaveFrames {
 }
 
 impl SaveFrames {
-    fn contains(&self, frame: usize, last: usize) -> bool {
+    /// Whether `frame` of a run of `last` frames is selected.
+    pub fn contains(&self, frame: usize, last: usize) -> bool {
         match self {
             SaveFrames::Every(0) => false,
             SaveFrames::Every(k) => frame % k == 0 || frame == last,
@@ -69,6 +74,8 @@ pub struct RunSummary {
     pub stage_seconds: crate::timing::StageTimes,
     /// Mirror-symmetry error at the last step (two-gas scenarios).
     pub final_mirror_error: Option<f32>,
+    /// Volume renders written, in frame order, with their statistics.
+    pub renders: Vec<FrameRecord>,
 }
 
 /// Column names of `metrics.csv` for a simulation's gases.
@@ -117,6 +124,7 @@ pub fn run<C: Serialize>(
         previews: vec![],
         stage_seconds: Default::default(),
         final_mirror_error: None,
+        renders: vec![],
     };
     if let Some(b) = &sim.boundary {
         io::write_npy3(&opts.out.join("obstacle.npy"), b.level().data())?;
@@ -146,6 +154,10 @@ pub fn run<C: Serialize>(
             timed(&mut times.output, || write_frame(sim, &opts.out, frame))?;
             summary.saved_frames.push(frame);
             summary.previews.push(preview_path(&opts.out, frame));
+        }
+        if let Some(r) = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames)) {
+            let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
+            summary.renders.push(record);
         }
         let mut row = vec![
             frame as f64,

@@ -8,14 +8,14 @@
 //! velocity = fftdivfree(velocity, region);                      // eq 6.3
 //! ```
 //!
-//! [`Simulation::step`] is exactly those four lines: [`Simulation::advect_densities`],
-//! [`Simulation::advect_velocity`], [`Simulation::add_buoyancy`] and
+//! [`Simulation::step`] is those lines in four verbs: [`Simulation::advect`]
+//! (every `advect(…, velocity, dt)` above: semi-Lagrangian in one sweep that
+//! traces each departure point once, or QUICK through face velocities frozen
+//! once), [`Simulation::inject_sources`], [`Simulation::add_buoyancy`] and
 //! [`Simulation::project`], followed by [`Simulation::apply_boundary`] when
-//! there are obstacles (§6.3, eqs 6.6–6.7). The advection step is prepared
-//! once — departure points traced (SL) or face velocities frozen (QUICK) —
-//! since all quantities move with the same velocity. Every buffer is
-//! allocated once in [`Simulation::new`]; a step allocates nothing but the
-//! projection's per-task scratch.
+//! there are obstacles (§6.3, eqs 6.6–6.7). The densities are advected by the
+//! velocity of the start of the step, as in the script. Every buffer is
+//! allocated once in [`Simulation::new`].
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -155,9 +155,8 @@ impl Simulation {
     /// sub-steps; the state is then unchanged.
     pub fn try_step(&mut self) -> Result<(), CflError> {
         let mut times = StageTimes::default();
-        timed(&mut times.advect, || self.prepare_advection())?;
-        timed(&mut times.advect, || self.advect_densities());
-        timed(&mut times.advect, || self.advect_velocity());
+        timed(&mut times.advect, || self.advect())?;
+        timed(&mut times.force, || self.inject_sources());
         timed(&mut times.force, || self.add_buoyancy());
         timed(&mut times.project, || self.project());
         timed(&mut times.project, || self.apply_boundary());
@@ -176,34 +175,44 @@ impl Simulation {
         }
     }
 
-    /// Prepare this step's advection through the current velocity: departure
-    /// points `x − ∫u dt` (SL) or frozen face velocities and sub-steps (QUICK).
+    /// Eqs 6.4–6.5, transport: every gas and the velocity itself moved by the
+    /// velocity of the start of the step (semi-Lagrangian: `ρ ← ρ(x − uΔt)`,
+    /// `u ← u(x − uΔt)` sharing one backtrace per cell; QUICK: finite volumes
+    /// through the same frozen face velocities).
     ///
     /// # Errors
-    /// As [`Advector::prepare`].
-    pub fn prepare_advection(&mut self) -> Result<(), CflError> {
-        self.advector.prepare(&self.velocity, self.params.dt)
+    /// As [`Advector::advect`]; nothing is changed then.
+    pub fn advect(&mut self) -> Result<(), CflError> {
+        let p = self.params;
+        let (srcs, mut dsts): (Vec<&ScalarGrid>, Vec<&mut ScalarGrid>) = self
+            .gases
+            .iter_mut()
+            .map(|g| (&g.density, &mut g.scratch))
+            .unzip();
+        self.advector.advect(
+            &self.velocity,
+            p.dt,
+            &srcs,
+            &mut dsts,
+            &mut self.velocity_scratch,
+        )?;
+        std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
+        for gas in &mut self.gases {
+            std::mem::swap(&mut gas.density, &mut gas.scratch);
+        }
+        Ok(())
     }
 
-    /// Eq 6.4: `ρ ← advect(ρ) + S Δt` for every gas.
-    pub fn advect_densities(&mut self) {
-        let p = self.params;
+    /// Eq 6.4, source: `ρ += S Δt` (the notes' `inject(point, dt)`).
+    pub fn inject_sources(&mut self) {
+        let dt = self.params.dt;
         for gas in &mut self.gases {
-            self.advector.density(&gas.density, &mut gas.scratch);
-            std::mem::swap(&mut gas.density, &mut gas.scratch);
             gas.density
                 .as_slice_mut()
                 .par_iter_mut()
                 .zip(gas.source.as_slice().par_iter())
-                .for_each(|(rho, s)| *rho += s * p.dt);
+                .for_each(|(rho, s)| *rho += s * dt);
         }
-    }
-
-    /// Eq 6.5, first term: `u ← advect(u, u, Δt)`.
-    pub fn advect_velocity(&mut self) {
-        self.advector
-            .vector(&self.velocity, &mut self.velocity_scratch);
-        std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
     }
 
     /// Eq 6.5, force: `u += −Δt g⃗ Σ lift·ρ` — with hot lift +1 and cold −1

@@ -22,7 +22,7 @@ use crate::domain::Domain;
 use crate::grid::{ScalarGrid, VectorGrid};
 pub use quick::{CflError, Limiter, Quick, QuickOptions};
 pub use semi_lagrangian::{
-    advect_scalar, advect_vector, interpolate_scalar, interpolate_vector, Departures,
+    advect_fused, advect_scalar, advect_vector, interpolate_scalar, interpolate_vector, Departures,
 };
 
 /// How the departure point `x − ∫u dt` of a semi-Lagrangian step is traced.
@@ -80,15 +80,13 @@ impl Default for AdvectionOptions {
     }
 }
 
-/// The per-step state of the chosen scheme: [`Advector::prepare`] once per
-/// step with the advecting velocity, then move any number of densities and
-/// the velocity through that step.
+/// The chosen scheme and its per-step state: [`Advector::advect`] moves any
+/// number of densities and the velocity itself through one step, all by the
+/// velocity of the start of the step.
 pub enum Advector {
-    /// Semi-Lagrangian: departure points traced once per step.
+    /// Semi-Lagrangian: one fused sweep tracing each departure point once.
     SemiLagrangian {
-        /// Departure points of the prepared step.
-        departures: Departures,
-        /// How they are traced.
+        /// How departure points are traced.
         backtrace: Backtrace,
     },
     /// QUICK: face velocities frozen once per step.
@@ -104,10 +102,7 @@ impl Advector {
     /// State for `options.scheme` on `domain`; SL traces with `backtrace`.
     pub fn new(domain: Domain, options: &AdvectionOptions, backtrace: Backtrace) -> Self {
         match options.scheme {
-            Scheme::Sl => Advector::SemiLagrangian {
-                departures: Departures::new(domain),
-                backtrace,
-            },
+            Scheme::Sl => Advector::SemiLagrangian { backtrace },
             Scheme::Quick => Advector::Quick {
                 quick: Box::new(Quick::new(domain, options.quick)),
                 density_limiter: options.density_limiter,
@@ -115,22 +110,44 @@ impl Advector {
         }
     }
 
-    /// Prepare a step of `dt` through `vel` (trace departures, or freeze face
-    /// velocities and choose sub-steps).
+    /// Move `srcs[i]` into `dsts[i]` (eq 6.4 without the source) and `vel`
+    /// into `vel_out` (eq 6.5 without the force), all through `vel` over `dt`.
     ///
     /// # Errors
-    /// QUICK's [`CflError`]; the semi-Lagrangian scheme never fails.
-    pub fn prepare(&mut self, vel: &VectorGrid, dt: f32) -> Result<(), CflError> {
+    /// QUICK's [`CflError`], before anything is written; the
+    /// semi-Lagrangian scheme never fails.
+    ///
+    /// # Panics
+    /// If the grids are on different domains or the slices differ in length.
+    pub fn advect(
+        &mut self,
+        vel: &VectorGrid,
+        dt: f32,
+        srcs: &[&ScalarGrid],
+        dsts: &mut [&mut ScalarGrid],
+        vel_out: &mut VectorGrid,
+    ) -> Result<(), CflError> {
         match self {
-            Advector::SemiLagrangian {
-                departures,
-                backtrace,
-            } => {
-                departures.trace(vel, dt, *backtrace);
-                Ok(())
+            Advector::SemiLagrangian { backtrace } => {
+                advect_fused(vel, dt, *backtrace, srcs, dsts, vel_out);
             }
-            Advector::Quick { quick, .. } => quick.prepare(vel, dt).map(|_| ()),
+            Advector::Quick {
+                quick,
+                density_limiter,
+            } => {
+                assert_eq!(
+                    srcs.len(),
+                    dsts.len(),
+                    "advect: sources and targets differ in number"
+                );
+                quick.prepare(vel, dt)?;
+                for (src, dst) in srcs.iter().zip(dsts.iter_mut()) {
+                    quick.advect_scalar(src, dst, *density_limiter);
+                }
+                quick.advect_vector(vel, vel_out, Limiter::None);
+            }
         }
+        Ok(())
     }
 
     /// Mark obstacle cells. QUICK closes every face touching one (no flux
@@ -142,7 +159,7 @@ impl Advector {
         }
     }
 
-    /// QUICK's open-face projection of the prepared step around obstacles:
+    /// QUICK's open-face projection of the last step around obstacles:
     /// conjugate-gradient iterations and the remaining cell divergence
     /// relative to the largest face Courant number (`None` for SL or without obstacles).
     pub fn face_projection_stats(&self) -> Option<(usize, f32)> {
@@ -152,30 +169,11 @@ impl Advector {
         }
     }
 
-    /// Sub-steps of the prepared step (always 1 for SL).
+    /// Sub-steps of the last step (always 1 for SL).
     pub fn substeps(&self) -> usize {
         match self {
             Advector::SemiLagrangian { .. } => 1,
             Advector::Quick { quick, .. } => quick.substeps(),
-        }
-    }
-
-    /// Move a density through the prepared step (eq 6.4 without the source).
-    pub fn density(&mut self, src: &ScalarGrid, dst: &mut ScalarGrid) {
-        match self {
-            Advector::SemiLagrangian { departures, .. } => interpolate_scalar(src, departures, dst),
-            Advector::Quick {
-                quick,
-                density_limiter,
-            } => quick.advect_scalar(src, dst, *density_limiter),
-        }
-    }
-
-    /// Move a vector grid (the velocity itself, eq 6.5) through the prepared step.
-    pub fn vector(&mut self, src: &VectorGrid, dst: &mut VectorGrid) {
-        match self {
-            Advector::SemiLagrangian { departures, .. } => interpolate_vector(src, departures, dst),
-            Advector::Quick { quick, .. } => quick.advect_vector(src, dst, Limiter::None),
         }
     }
 }

@@ -12,14 +12,18 @@
 //! and the first velocity sample of every backtrace is the cell's own value,
 //! read without interpolation.
 //!
-//! Parallel over z-slabs with rayon; no allocation after [`Departures::new`].
+//! [`advect_fused`] does the whole step of a simulation in one pass: for each
+//! cell it traces the departure point once and interpolates the velocity and
+//! every density there with one shared stencil, so memory is swept once.
+//!
+//! Parallel over z-slabs with rayon; no per-cell allocation.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::Backtrace;
 use crate::domain::Domain;
-use crate::grid::{ScalarGrid, Stencil, VectorGrid};
+use crate::grid::{ScalarGrid, Stencil, VectorGrid, Wrap};
 
 /// The departure point of every cell centre for one step, in grid coordinates.
 #[derive(Clone, Debug)]
@@ -65,6 +69,7 @@ impl Departures {
         let dt_cells = dt / self.domain.cell;
         let [nx, ny, _] = self.domain.dims;
         let u = vel.as_vec3();
+        let sampler = VelocitySampler::new(vel);
         self.points
             .par_chunks_mut(nx * ny)
             .zip(u.par_chunks(nx * ny))
@@ -74,27 +79,50 @@ impl Departures {
                     for i in 0..nx {
                         let n = j * nx + i;
                         let c = Vec3::new(i as f32, j as f32, k as f32);
-                        out[n] = departure(vel, c, u0[n], dt_cells, backtrace);
+                        out[n] = departure(sampler, c, u0[n], dt_cells, backtrace);
                     }
                 }
             });
     }
 }
 
+/// Trilinear velocity lookups with the grid's slice and layout hoisted out of
+/// the per-cell loop.
+#[derive(Clone, Copy)]
+struct VelocitySampler<'a> {
+    data: &'a [f32],
+    dims: [usize; 3],
+    wrap: Wrap,
+}
+
+impl<'a> VelocitySampler<'a> {
+    fn new(vel: &'a VectorGrid) -> Self {
+        Self {
+            data: vel.as_slice(),
+            dims: vel.domain().dims,
+            wrap: vel.wrap(),
+        }
+    }
+
+    #[inline(always)]
+    fn at(&self, g: Vec3) -> Vec3 {
+        Stencil::new(g, self.dims, self.wrap).apply_vec3(self.data)
+    }
+}
+
 /// Departure point, in grid coordinates, of the cell centre `c` whose own
 /// velocity is `u0`, after `dt_cells = Δt/Δx`.
 #[inline(always)]
-fn departure(vel: &VectorGrid, c: Vec3, u0: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
-    let u = |g: Vec3| vel.sample_grid_coords(g);
+fn departure(vel: VelocitySampler, c: Vec3, u0: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
     match backtrace {
         Backtrace::Euler => c - dt_cells * u0,
-        Backtrace::Rk2 => c - dt_cells * u(c - 0.5 * dt_cells * u0),
+        Backtrace::Rk2 => c - dt_cells * vel.at(c - 0.5 * dt_cells * u0),
         Backtrace::Rk3 => {
             // Kutta's RK3 for dx/dt = −u(x): k1 = −u(x), k2 = −u(x + ½k1),
             // k3 = −u(x − k1 + 2k2), x_d = x + (k1 + 4k2 + k3)/6 (times Δt).
             let k1 = -dt_cells * u0;
-            let k2 = -dt_cells * u(c + 0.5 * k1);
-            let k3 = -dt_cells * u(c - k1 + 2.0 * k2);
+            let k2 = -dt_cells * vel.at(c + 0.5 * k1);
+            let k3 = -dt_cells * vel.at(c - k1 + 2.0 * k2);
             c + (k1 + 4.0 * k2 + k3) / 6.0
         }
     }
@@ -180,4 +208,77 @@ pub fn advect_vector(
     let mut dep = Departures::new(*vel.domain());
     dep.trace(vel, dt, backtrace);
     interpolate_vector(src, &dep, dst);
+}
+
+/// One semi-Lagrangian step for everything that moves with `vel`:
+/// `vel_out = vel(x_d)` and `dsts[n] = srcs[n](x_d)` with the departure point
+/// `x_d` traced once per cell (eqs 6.4–6.5 without sources and forces).
+///
+/// # Panics
+/// If a grid is on another domain, or `srcs` and `dsts` differ in length.
+pub fn advect_fused(
+    vel: &VectorGrid,
+    dt: f32,
+    backtrace: Backtrace,
+    srcs: &[&ScalarGrid],
+    dsts: &mut [&mut ScalarGrid],
+    vel_out: &mut VectorGrid,
+) {
+    let d = *vel.domain();
+    assert_eq!(
+        srcs.len(),
+        dsts.len(),
+        "advect_fused: {} sources but {} targets",
+        srcs.len(),
+        dsts.len()
+    );
+    assert_eq!(
+        vel_out.domain(),
+        &d,
+        "advect_fused: velocity target on another domain"
+    );
+    for g in srcs
+        .iter()
+        .map(|g| g.domain())
+        .chain(dsts.iter().map(|g| g.domain()))
+    {
+        assert_eq!(g, &d, "advect_fused: density on another domain");
+    }
+    let [nx, ny, _] = d.dims;
+    let slab = nx * ny;
+    let dt_cells = dt / d.cell;
+    let (u, sampler) = (vel.as_vec3(), VelocitySampler::new(vel));
+    let src: Vec<(&[f32], Wrap)> = srcs.iter().map(|g| (g.as_slice(), g.wrap())).collect();
+    // Split every target into z-slabs and regroup them per slab.
+    let mut slabs: Vec<(&mut [Vec3], Vec<&mut [f32]>)> = vel_out
+        .as_vec3_mut()
+        .chunks_mut(slab)
+        .map(|c| (c, Vec::with_capacity(dsts.len())))
+        .collect();
+    for dst in dsts.iter_mut() {
+        for (s, chunk) in slabs.iter_mut().zip(dst.as_slice_mut().chunks_mut(slab)) {
+            s.1.push(chunk);
+        }
+    }
+    slabs
+        .into_par_iter()
+        .enumerate()
+        .for_each(|(k, (vout, mut outs))| {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let n = j * nx + i;
+                    let c = Vec3::new(i as f32, j as f32, k as f32);
+                    let g = departure(sampler, c, u[k * slab + n], dt_cells, backtrace);
+                    let st = Stencil::new(g, d.dims, sampler.wrap);
+                    vout[n] = st.apply_vec3(sampler.data);
+                    for ((data, wrap), out) in src.iter().zip(outs.iter_mut()) {
+                        out[n] = if *wrap == sampler.wrap {
+                            st.apply(data)
+                        } else {
+                            Stencil::new(g, d.dims, *wrap).apply(data)
+                        };
+                    }
+                }
+            }
+        });
 }

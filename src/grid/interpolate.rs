@@ -26,32 +26,41 @@ pub struct Stencil {
     pub weight: [f32; 8],
 }
 
+/// `⌊g⌋` as an integer and the fraction `g − ⌊g⌋`.
+///
+/// Truncation plus a correction: `f32::floor` is a libm call on baseline
+/// x86-64, and this runs three times per trilinear sample.
+#[inline(always)]
+fn floor_frac(g: f32) -> (i32, f32) {
+    let t = g as i32;
+    let f = if (t as f32) > g { t - 1 } else { t };
+    (f, g - f as f32)
+}
+
 /// Lower and upper lattice index and the fraction between them along one axis.
 #[inline(always)]
 fn axis(g: f32, n: usize, wrap: Wrap) -> (usize, usize, f32) {
+    let ni = n as i32;
     match wrap {
         Wrap::Periodic => {
-            let f = g.floor();
-            let t = g - f;
-            let (fi, ni) = (f as i64, n as i64);
+            let (f, t) = floor_frac(g);
             // Departure points are rarely more than one period away: avoid the
             // integer division of `rem_euclid` on the common path.
-            let i0 = if (0..ni).contains(&fi) {
-                fi
-            } else if (-ni..0).contains(&fi) {
-                fi + ni
+            let i0 = if (0..ni).contains(&f) {
+                f
+            } else if (-ni..0).contains(&f) {
+                f + ni
             } else {
-                fi.rem_euclid(ni)
+                f.rem_euclid(ni)
             } as usize;
             let i1 = if i0 + 1 == n { 0 } else { i0 + 1 };
             (i0, i1, t)
         }
         Wrap::Clamped => {
-            let g = g.clamp(0.0, (n - 1) as f32);
-            let f = g.floor();
+            let (f, t) = floor_frac(g.clamp(0.0, (n - 1) as f32));
             let i0 = f as usize;
             let i1 = (i0 + 1).min(n - 1);
-            (i0, i1, g - f)
+            (i0, i1, t)
         }
     }
 }
@@ -91,23 +100,49 @@ impl Stencil {
         }
     }
 
+    /// The largest corner index.
+    #[inline(always)]
+    fn max_index(&self) -> usize {
+        self.index.iter().copied().fold(0, usize::max)
+    }
+
     /// Interpolate a scalar array laid out like the grid.
+    ///
+    /// # Panics
+    /// If `data` is too short for the stencil's grid.
     #[inline(always)]
     pub fn apply(&self, data: &[f32]) -> f32 {
+        assert!(self.max_index() < data.len(), "stencil outside the data");
         let mut acc = 0.0;
         for c in 0..8 {
-            acc += self.weight[c] * data[self.index[c]];
+            // SAFETY: every index is at most `max_index() < data.len()`.
+            acc += self.weight[c] * unsafe { *data.get_unchecked(self.index[c]) };
         }
         acc
     }
 
     /// Interpolate an interleaved 3-component array laid out like the grid.
+    ///
+    /// # Panics
+    /// If `data` is too short for the stencil's grid.
     #[inline(always)]
     pub fn apply_vec3(&self, data: &[f32]) -> Vec3 {
+        assert!(
+            3 * self.max_index() + 2 < data.len(),
+            "stencil outside the data"
+        );
         let mut acc = Vec3::ZERO;
         for c in 0..8 {
             let o = 3 * self.index[c];
-            acc += self.weight[c] * Vec3::new(data[o], data[o + 1], data[o + 2]);
+            // SAFETY: `o + 2 ≤ 3 max_index() + 2 < data.len()`.
+            let v = unsafe {
+                Vec3::new(
+                    *data.get_unchecked(o),
+                    *data.get_unchecked(o + 1),
+                    *data.get_unchecked(o + 2),
+                )
+            };
+            acc += self.weight[c] * v;
         }
         acc
     }

@@ -4,6 +4,12 @@
 //! least-squares slope of `log e` against `log h`; the pairwise rates
 //! `log(e_i/e_{i+1}) / log(h_i/h_{i+1})` show whether the asymptotic regime
 //! has been reached (STYLE.md, after Oceananigans).
+//!
+//! [`cases`] holds the studies themselves, each against an exact solution and
+//! refined at a fixed CFL number; the tests run them at small sizes and
+//! experiment C-1 at larger ones.
+
+pub mod cases;
 
 use std::fmt;
 
