@@ -20,6 +20,8 @@ mod henyey_greenstein;
 mod hot_cold_gridded;
 #[path = "N_3_simulation_noise_2d.rs"]
 mod simulation_noise_2d;
+#[path = "06_6_slab_box.rs"]
+mod slab_box;
 
 use std::path::PathBuf;
 
@@ -68,6 +70,7 @@ pub struct Experiment {
 /// Every experiment, in the notes' order.
 pub const ALL: &[Experiment] = &[
     hot_cold_gridded::EXPERIMENT,
+    slab_box::EXPERIMENT,
     gridless_noise_step::EXPERIMENT,
     henyey_greenstein::EXPERIMENT,
     fournier_forand::EXPERIMENT,

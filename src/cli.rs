@@ -9,12 +9,14 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
-use crate::advection::Backtrace;
+use crate::advection::{Backtrace, Limiter, Scheme};
+use crate::boundary::BoundaryRule;
 use crate::error::InputError;
 use crate::experiments;
 use crate::io;
 use crate::run::{self, RunOptions, SaveFrames};
 use crate::scenario::hot_cold::HotColdConfig;
+use crate::scenario::slab_box::SlabBoxConfig;
 use crate::scenario::ScenarioKind;
 
 /// Navier–Stokes smoke with gridded, gridless and SELMA density.
@@ -69,6 +71,24 @@ pub struct RunArgs {
     /// Semi-Lagrangian backtrace.
     #[arg(long, value_enum)]
     pub backtrace: Option<Backtrace>,
+    /// Advection scheme for velocity and densities.
+    #[arg(long, value_enum)]
+    pub advection: Option<Scheme>,
+    /// QUICK density limiter.
+    #[arg(long, value_enum)]
+    pub limiter: Option<Limiter>,
+    /// QUICK: refuse steps beyond the CFL bound instead of splitting them.
+    #[arg(long)]
+    pub no_substeps: bool,
+    /// Obstacle rule (slab-box): reflecting (eq 6.6) or sticky (eq 6.7).
+    #[arg(long, value_enum)]
+    pub boundary: Option<BoundaryRule>,
+    /// Fraction α of normal velocity a sticky boundary sends back (slab-box).
+    #[arg(long, allow_negative_numbers = true)]
+    pub alpha: Option<f32>,
+    /// Boundary-rule/projection pairs per step (slab-box).
+    #[arg(long, allow_negative_numbers = true)]
+    pub boundary_passes: Option<usize>,
     /// Write volumes every K frames (0: metrics only).
     #[arg(long, allow_negative_numbers = true)]
     pub save_every: Option<usize>,
@@ -110,6 +130,12 @@ impl Default for RunArgs {
             gravity: None,
             radius: None,
             backtrace: None,
+            advection: None,
+            limiter: None,
+            no_substeps: false,
+            boundary: None,
+            alpha: None,
+            boundary_passes: None,
             save_every: None,
             seed: None,
             out: None,
@@ -134,6 +160,39 @@ impl RunArgs {
             ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
         }
         take!(res, frames, dt, nu, gravity, radius, backtrace, save_every, seed);
+        take!(advection, limiter);
+        if self.no_substeps {
+            c.substeps = false;
+        }
+        for (flag, given) in [
+            ("--boundary", self.boundary.is_some()),
+            ("--alpha", self.alpha.is_some()),
+            ("--boundary-passes", self.boundary_passes.is_some()),
+        ] {
+            if given {
+                return Err(InputError::new(format!(
+                    "{flag} applies to slab-box only; hot-cold has no obstacles"
+                )));
+            }
+        }
+        c.validate()?;
+        Ok(c)
+    }
+
+    /// The slab-box configuration: defaults, then the TOML file, then flags.
+    pub fn slab_box_config(&self) -> Result<SlabBoxConfig, InputError> {
+        let mut c = match &self.config {
+            Some(path) => SlabBoxConfig::from_toml_file(path)?,
+            None => SlabBoxConfig::default(),
+        };
+        macro_rules! take {
+            ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
+        }
+        take!(res, frames, dt, nu, gravity, radius, backtrace, save_every, seed);
+        take!(advection, limiter, boundary, alpha, boundary_passes);
+        if self.no_substeps {
+            c.substeps = false;
+        }
         c.validate()?;
         Ok(c)
     }
@@ -215,6 +274,37 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
             let summary = run::run(&mut sim, &opts, &config, config.seed)?;
             println!(
                 "hot-cold: {} steps at {}³ in {:.1} s; wrote {}",
+                config.frames,
+                config.res,
+                summary.wall_seconds,
+                out.display()
+            );
+        }
+        ScenarioKind::SlabBox => {
+            let config = args.slab_box_config()?;
+            if args.render {
+                return Err(InputError::new(
+                    "--render is not available for slab-box yet; use the slices (preview_NNNN.png) or `smokelab render` on the volumes",
+                )
+                .into());
+            }
+            let out = args
+                .out
+                .clone()
+                .unwrap_or_else(|| default_run_dir("slab-box"));
+            io::check_output_dir(&out)?;
+            let mut sim = config.build()?;
+            io::create_output_dir(&out)?;
+            let opts = RunOptions {
+                out: out.clone(),
+                frames: config.frames,
+                save: SaveFrames::Every(config.save_every),
+                progress: !args.quiet,
+                render: None,
+            };
+            let summary = run::run(&mut sim, &opts, &config, config.seed)?;
+            println!(
+                "slab-box: {} steps at {}³ in {:.1} s; wrote {}",
                 config.frames,
                 config.res,
                 summary.wall_seconds,

@@ -10,15 +10,16 @@
 //! - [`domain`] — the box, cell size and index ↔ world conventions;
 //! - [`field`] — scalar and vector fields, batch evaluation, combinators;
 //! - [`grid`] — caches: trilinear `cacheread`, parallel `cachewrite`;
-//! - [`advection`] — semi-Lagrangian (eqs 6.4–6.5);
+//! - [`advection`] — semi-Lagrangian (eqs 6.4–6.5) and QUICK;
 //! - [`projection`] — FFT divergence-free projection with exact viscosity;
 //! - [`metrics`] — divergence, mirror symmetry;
+//! - [`boundary`] — level-set obstacles, reflecting and sticky rules (eqs 6.6–6.7);
 //! - [`convergence`] — observed order of accuracy for convergence tests;
 //! - [`noise`] — divergence-free noise velocities (simulation, curl, bitangent, spectral);
 //! - [`timing`] — stage timers, peak memory;
 //! - [`plot`] — line plots (PNG + SVG) for the experiments;
 //! - [`simulation`] — the time step;
-//! - [`scenario`] — hot/cold (§6.1.1);
+//! - [`scenario`] — hot/cold (§6.1.1), slab in a box (§6.3, fig 6.6);
 //! - [`io`] — atomic `.npy`/PNG/JSON/CSV writers, manifests, previews;
 //! - [`render`] — the volume ray marcher (appendix A), EXR/PNG output;
 //! - [`run`] — driving a simulation through its frames;
@@ -37,6 +38,7 @@
 //! ```
 
 pub mod advection;
+pub mod boundary;
 pub mod cli;
 pub mod convergence;
 pub mod domain;

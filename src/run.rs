@@ -3,8 +3,10 @@
 //! Output folder layout (see the README):
 //! - `<gas>_NNNN.npy` — f32 `(nz, ny, nx)` density at the cell centres;
 //! - `vel_NNNN.npy` — f32 `(nz, ny, nx, 3)` velocity, as the projection left it;
-//! - `preview_NNNN.png` — mid-plane slice of the gases;
+//! - `preview_NNNN.png` — mid-plane slice of the gases (obstacles grey);
 //! - `render_NNNN.exr`, `render_NNNN.png` — volume renders (with `--render`);
+//! - `obstacle.npy` — f32 `(nz, ny, nx)` obstacle level set at the cell
+//!   centres, positive inside, world units (runs with obstacles);
 //! - `metrics.csv` — one row per step, rewritten whole at every saved frame;
 //! - `manifest.json` — configuration, machine, commit, wall time, peak memory.
 //!
@@ -17,6 +19,7 @@ use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
+use crate::boundary::Leak;
 use crate::io::{self, manifest::Manifest, preview, CsvLog};
 use crate::metrics;
 use crate::render::frames::{FrameRecord, FrameRender};
@@ -84,6 +87,11 @@ fn metric_columns(sim: &Simulation) -> Vec<String> {
     if sim.gases.len() == 2 {
         cols.push("mirror_error".into());
     }
+    cols.push("substeps".into());
+    if sim.boundary.is_some() {
+        cols.extend(Leak::COLUMNS.map(String::from));
+        cols.extend(["face_cg_iterations", "face_div_rel"].map(String::from));
+    }
     cols.extend(["t_advect", "t_force", "t_project", "t_output"].map(String::from));
     cols
 }
@@ -118,8 +126,17 @@ pub fn run<C: Serialize>(
         final_mirror_error: None,
         renders: vec![],
     };
+    if let Some(b) = &sim.boundary {
+        io::write_npy3(&opts.out.join("obstacle.npy"), b.level().data())?;
+    }
     for frame in 1..=opts.frames {
-        sim.step();
+        if let Err(e) = sim.try_step() {
+            csv.flush()?;
+            bail!(
+                "step {frame}: {e}; frames written so far are in {}",
+                opts.out.display()
+            );
+        }
         let mut times = sim.times;
         let finite = sim.velocity.is_finite();
         if !finite {
@@ -152,6 +169,13 @@ pub fn run<C: Serialize>(
         ];
         row.extend(sim.gases.iter().map(|g| g.density.total()));
         row.extend(mirror.map(|m| m as f64));
+        row.push(sim.advector().substeps() as f64);
+        if let Some(b) = &sim.boundary {
+            let densities: Vec<_> = sim.gases.iter().map(|g| &g.density).collect();
+            row.extend(b.leak(&sim.velocity, &densities).row());
+            let (iterations, residual) = sim.advector().face_projection_stats().unwrap_or((0, 0.0));
+            row.extend([iterations as f64, residual as f64]);
+        }
         row.extend([times.advect, times.force, times.project, times.output]);
         csv.push(&row);
         if summary.saved_frames.last() == Some(&frame) {
@@ -196,9 +220,16 @@ pub fn write_frame(sim: &Simulation, out: &Path, frame: usize) -> Result<()> {
     io::write_png(&preview_path(out, frame), &preview_image(sim))
 }
 
-/// Mid-plane slice of every gas in its display colour.
+/// Mid-plane slice of every gas in its display colour, obstacles in grey.
 pub fn preview_image(sim: &Simulation) -> image::RgbImage {
-    let layers: Vec<preview::Layer> = sim
+    let solid = sim.boundary.as_ref().map(|b| {
+        let mut m = b.level().clone();
+        m.as_slice_mut()
+            .iter_mut()
+            .for_each(|o| *o = if *o >= 0.0 { 2.0 } else { 0.0 });
+        m
+    });
+    let mut layers: Vec<preview::Layer> = sim
         .gases
         .iter()
         .map(|g| preview::Layer {
@@ -210,5 +241,11 @@ pub fn preview_image(sim: &Simulation) -> image::RgbImage {
             },
         })
         .collect();
+    if let Some(grid) = &solid {
+        layers.push(preview::Layer {
+            grid,
+            color: preview::GREY,
+        });
+    }
     preview::mid_slice(&layers, 1.0, 256)
 }

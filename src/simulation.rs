@@ -9,16 +9,19 @@
 //! ```
 //!
 //! [`Simulation::step`] is those lines in four verbs: [`Simulation::advect`]
-//! (every `advect(…, velocity, dt)` above, in one sweep that traces each
-//! departure point once), [`Simulation::inject_sources`],
-//! [`Simulation::add_buoyancy`] and [`Simulation::project`]. The densities
-//! are advected by the velocity of the start of the step, as in the script.
-//! Every buffer is allocated once in [`Simulation::new`].
+//! (every `advect(…, velocity, dt)` above: semi-Lagrangian in one sweep that
+//! traces each departure point once, or QUICK through face velocities frozen
+//! once), [`Simulation::inject_sources`], [`Simulation::add_buoyancy`] and
+//! [`Simulation::project`], followed by [`Simulation::apply_boundary`] when
+//! there are obstacles (§6.3, eqs 6.6–6.7). The densities are advected by the
+//! velocity of the start of the step, as in the script. Every buffer is
+//! allocated once in [`Simulation::new`].
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::advection::{self, Backtrace};
+use crate::advection::{AdvectionOptions, Advector, Backtrace, CflError};
+use crate::boundary::Boundary;
 use crate::domain::Domain;
 use crate::field::Scalar;
 use crate::grid::{ScalarGrid, VectorGrid};
@@ -82,12 +85,15 @@ pub struct Simulation {
     pub step_index: usize,
     /// Wall time per stage of the last step.
     pub times: StageTimes,
+    /// Obstacles and their rule (eqs 6.6–6.7), if any.
+    pub boundary: Option<Boundary>,
     velocity_scratch: VectorGrid,
+    advector: Advector,
     projection: Projection,
 }
 
 impl Simulation {
-    /// A fluid at rest on `domain` carrying `gases`.
+    /// A fluid at rest on `domain` carrying `gases`, advected semi-Lagrangian.
     pub fn new(domain: Domain, params: StepParams, gases: Vec<Gas>) -> Self {
         Self {
             params,
@@ -95,9 +101,40 @@ impl Simulation {
             gases,
             step_index: 0,
             times: StageTimes::default(),
+            boundary: None,
             velocity_scratch: VectorGrid::zeros(domain),
+            advector: Advector::new(domain, &AdvectionOptions::default(), params.backtrace),
             projection: Projection::new(domain),
         }
+    }
+
+    /// The same simulation advecting with `options` (scheme, QUICK sub-steps, limiter).
+    pub fn with_advection(mut self, options: &AdvectionOptions) -> Self {
+        self.advector = Advector::new(*self.domain(), options, self.params.backtrace);
+        if let Some(b) = &self.boundary {
+            self.advector.set_solid(&b.solid());
+        }
+        self
+    }
+
+    /// The same simulation with obstacles (QUICK closes the faces of their cells).
+    ///
+    /// # Panics
+    /// If the boundary was sampled on another domain.
+    pub fn with_boundary(mut self, boundary: Boundary) -> Self {
+        assert_eq!(
+            boundary.level().domain(),
+            self.domain(),
+            "boundary sampled on another domain"
+        );
+        self.advector.set_solid(&boundary.solid());
+        self.boundary = Some(boundary);
+        self
+    }
+
+    /// The advection state of the last step (e.g. its QUICK sub-step count).
+    pub fn advector(&self) -> &Advector {
+        &self.advector
     }
 
     /// The grid everything lives on.
@@ -110,38 +147,60 @@ impl Simulation {
         self.step_index as f32 * self.params.dt
     }
 
-    /// One time step: eqs 6.4, 6.5 and the projection (6.3).
-    pub fn step(&mut self) {
+    /// One time step: eqs 6.4, 6.5, the projection (6.3) and the boundary
+    /// rule (6.6/6.7).
+    ///
+    /// # Errors
+    /// A QUICK step that would break its CFL bound and may not be split into
+    /// sub-steps; the state is then unchanged.
+    pub fn try_step(&mut self) -> Result<(), CflError> {
         let mut times = StageTimes::default();
-        timed(&mut times.advect, || self.advect());
+        timed(&mut times.advect, || self.advect())?;
         timed(&mut times.force, || self.inject_sources());
         timed(&mut times.force, || self.add_buoyancy());
         timed(&mut times.project, || self.project());
+        timed(&mut times.project, || self.apply_boundary());
         self.step_index += 1;
         self.times = times;
+        Ok(())
     }
 
-    /// Eqs 6.4–6.5, transport: `ρ ← ρ(x − uΔt)` for every gas and
-    /// `u ← u(x − uΔt)`, sharing one backtrace per cell.
-    pub fn advect(&mut self) {
+    /// [`Self::try_step`] for callers that cannot recover from a refused step.
+    ///
+    /// # Panics
+    /// With the [`CflError`] message if the step is refused.
+    pub fn step(&mut self) {
+        if let Err(e) = self.try_step() {
+            panic!("step {}: {e}", self.step_index + 1);
+        }
+    }
+
+    /// Eqs 6.4–6.5, transport: every gas and the velocity itself moved by the
+    /// velocity of the start of the step (semi-Lagrangian: `ρ ← ρ(x − uΔt)`,
+    /// `u ← u(x − uΔt)` sharing one backtrace per cell; QUICK: finite volumes
+    /// through the same frozen face velocities).
+    ///
+    /// # Errors
+    /// As [`Advector::advect`]; nothing is changed then.
+    pub fn advect(&mut self) -> Result<(), CflError> {
         let p = self.params;
         let (srcs, mut dsts): (Vec<&ScalarGrid>, Vec<&mut ScalarGrid>) = self
             .gases
             .iter_mut()
             .map(|g| (&g.density, &mut g.scratch))
             .unzip();
-        advection::advect_fused(
+        self.advector.advect(
             &self.velocity,
             p.dt,
-            p.backtrace,
             &srcs,
             &mut dsts,
             &mut self.velocity_scratch,
-        );
+        )?;
         std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
         for gas in &mut self.gases {
             std::mem::swap(&mut gas.density, &mut gas.scratch);
         }
+        Ok(())
     }
 
     /// Eq 6.4, source: `ρ += S Δt` (the notes' `inject(point, dt)`).
@@ -183,5 +242,19 @@ impl Simulation {
         let p = self.params;
         self.projection
             .project(&mut self.velocity, p.viscosity, p.dt);
+    }
+
+    /// Eqs 6.6/6.7 on the obstacles, alternated with the (periodic) projection
+    /// [`Boundary::passes`] times and ending with the rule, so that after a
+    /// step no obstacle cell flows inward; the divergence left near obstacles
+    /// is what `metrics.csv` reports.
+    pub fn apply_boundary(&mut self) {
+        let Some(b) = &self.boundary else { return };
+        b.apply(&mut self.velocity);
+        for _ in 1..b.passes() {
+            self.projection
+                .project(&mut self.velocity, 0.0, self.params.dt);
+            b.apply(&mut self.velocity);
+        }
     }
 }

@@ -18,6 +18,8 @@ pub const RED: [f32; 3] = [1.0, 0.25, 0.1];
 pub const BLUE: [f32; 3] = [0.15, 0.35, 1.0];
 /// Buoyant gas green (fig 6.6).
 pub const GREEN: [f32; 3] = [0.2, 1.0, 0.3];
+/// Obstacles in previews.
+pub const GREY: [f32; 3] = [0.45, 0.45, 0.45];
 
 /// The slice `z = nz/2` of the layers, x to the right and y up, each pixel
 /// `Σ colour · (1 − exp(−gain ρ))`, upscaled by nearest neighbour so the
@@ -62,6 +64,22 @@ pub fn side_by_side(images: &[RgbImage], gap: u32) -> RgbImage {
     for img in images {
         image::imageops::replace(&mut out, img, x0 as i64, 0);
         x0 += img.width() + gap;
+    }
+    out
+}
+
+/// Images one above another with a `gap`-pixel dark separator.
+///
+/// # Panics
+/// If `images` is empty.
+pub fn stacked(images: &[RgbImage], gap: u32) -> RgbImage {
+    let w = images.iter().map(|i| i.width()).max().expect("no images");
+    let h: u32 = images.iter().map(|i| i.height()).sum::<u32>() + gap * (images.len() as u32 - 1);
+    let mut out = RgbImage::from_pixel(w, h, Rgb([40, 40, 40]));
+    let mut y0 = 0;
+    for img in images {
+        image::imageops::replace(&mut out, img, 0, y0 as i64);
+        y0 += img.height() + gap;
     }
     out
 }

@@ -13,7 +13,7 @@ use std::path::Path;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::advection::Backtrace;
+use crate::advection::{AdvectionOptions, Backtrace, Limiter, QuickOptions, Scheme};
 use crate::domain::Domain;
 use crate::error::InputError;
 use crate::field::ops;
@@ -43,6 +43,12 @@ pub struct HotColdConfig {
     pub hot_center: Option<[f32; 3]>,
     /// Semi-Lagrangian backtrace.
     pub backtrace: Backtrace,
+    /// Advection scheme for velocity and densities (`sl` or `quick`).
+    pub advection: Scheme,
+    /// QUICK: split steps beyond the CFL bound into sub-steps (false: refuse them).
+    pub substeps: bool,
+    /// QUICK: limiter for the densities.
+    pub limiter: Limiter,
     /// Write volumes and a preview every this many frames (0: metrics only).
     pub save_every: usize,
     /// Random seed (recorded; the scenario itself is deterministic).
@@ -61,6 +67,9 @@ impl Default for HotColdConfig {
             radius: 1.0,
             hot_center: None,
             backtrace: Backtrace::Rk2,
+            advection: Scheme::Sl,
+            substeps: true,
+            limiter: Limiter::Ultimate,
             save_every: 10,
             seed: 0,
         }
@@ -163,6 +172,18 @@ impl HotColdConfig {
         Ok(())
     }
 
+    /// The advection options these parameters select.
+    pub fn advection_options(&self) -> AdvectionOptions {
+        AdvectionOptions {
+            scheme: self.advection,
+            quick: QuickOptions {
+                substeps: self.substeps,
+                ..Default::default()
+            },
+            density_limiter: self.limiter,
+        }
+    }
+
     /// Build the simulation at rest with both sources in place.
     pub fn build(&self) -> Result<Simulation, InputError> {
         self.validate()?;
@@ -178,6 +199,6 @@ impl HotColdConfig {
             gravity: Vec3::new(0.0, -self.gravity, 0.0),
             backtrace: self.backtrace,
         };
-        Ok(Simulation::new(domain, params, gases))
+        Ok(Simulation::new(domain, params, gases).with_advection(&self.advection_options()))
     }
 }

@@ -1,6 +1,7 @@
 //! Scenarios: initial state, sources, forces and parameters with defaults.
 
 pub mod hot_cold;
+pub mod slab_box;
 
 use serde::{Deserialize, Serialize};
 
@@ -10,4 +11,6 @@ use serde::{Deserialize, Serialize};
 pub enum ScenarioKind {
     /// Hot gas rising from below, cold gas sinking from above (§6.1.1, figs 6.1–6.2).
     HotCold,
+    /// Buoyant gas in a closed box flowing around a slab (§6.3, fig 6.6).
+    SlabBox,
 }
