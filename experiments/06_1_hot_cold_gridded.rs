@@ -50,6 +50,8 @@ fn run(ctx: &Context) -> Result<()> {
         frames: config.frames,
         save: SaveFrames::List(frames),
         progress: ctx.progress,
+        metrics_every: config.metrics_every,
+        sample_res: config.sample_res,
     };
     let summary = run::run(&mut sim, &opts, &config, config.seed)?;
     let images = summary

@@ -10,6 +10,7 @@ use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
 use crate::advection::Backtrace;
+use crate::density::DensityMode;
 use crate::error::InputError;
 use crate::experiments;
 use crate::io;
@@ -68,6 +69,24 @@ pub struct RunArgs {
     /// Write volumes every K frames (0: metrics only).
     #[arg(long, allow_negative_numbers = true)]
     pub save_every: Option<usize>,
+    /// How the densities are held: gridded (eq 6.4), gridless (eq 7.4) or selma (eq 8.8).
+    #[arg(long, value_enum)]
+    pub density: Option<DensityMode>,
+    /// SELMA map grid cells along the longest axis (default: --res; finer is SELMA^fine).
+    #[arg(long, allow_negative_numbers = true)]
+    pub map_res: Option<usize>,
+    /// SELMA: re-anchor the map every K steps (0: never).
+    #[arg(long, allow_negative_numbers = true)]
+    pub selma_restart: Option<usize>,
+    /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub sample_res: Option<usize>,
+    /// Fine-sampled density metrics every K steps (costly for gridless; default 1).
+    #[arg(long, allow_negative_numbers = true)]
+    pub metrics_every: Option<usize>,
+    /// Run even if the memory estimate exceeds the available memory.
+    #[arg(long)]
+    pub force: bool,
     /// Random seed.
     #[arg(long)]
     pub seed: Option<u64>,
@@ -95,6 +114,12 @@ impl Default for RunArgs {
             radius: None,
             backtrace: None,
             save_every: None,
+            density: None,
+            map_res: None,
+            selma_restart: None,
+            sample_res: None,
+            metrics_every: None,
+            force: false,
             seed: None,
             out: None,
             threads: None,
@@ -113,7 +138,27 @@ impl RunArgs {
         macro_rules! take {
             ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
         }
-        take!(res, frames, dt, nu, gravity, radius, backtrace, save_every, seed);
+        take!(
+            res,
+            frames,
+            dt,
+            nu,
+            gravity,
+            radius,
+            backtrace,
+            save_every,
+            density,
+            selma_restart,
+            metrics_every,
+            seed
+        );
+        if self.map_res.is_some() {
+            c.map_res = self.map_res;
+        }
+        if self.sample_res.is_some() {
+            c.sample_res = self.sample_res;
+        }
+        c.force |= self.force;
         c.validate()?;
         Ok(c)
     }
@@ -184,10 +229,13 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
                 frames: config.frames,
                 save: SaveFrames::Every(config.save_every),
                 progress: !args.quiet,
+                metrics_every: config.metrics_every,
+                sample_res: config.sample_res,
             };
             let summary = run::run(&mut sim, &opts, &config, config.seed)?;
             println!(
-                "hot-cold: {} steps at {}³ in {:.1} s; wrote {}",
+                "hot-cold ({} density): {} steps at {}³ in {:.1} s; wrote {}",
+                config.density,
                 config.frames,
                 config.res,
                 summary.wall_seconds,

@@ -14,6 +14,7 @@
 //! - [`projection`] — FFT divergence-free projection with exact viscosity;
 //! - [`metrics`] — divergence, mirror symmetry;
 //! - [`convergence`] — observed order of accuracy for convergence tests;
+//! - [`density`] — gridded, gridless and SELMA densities (§6.2, ch. 7–8);
 //! - [`timing`] — stage timers, peak memory;
 //! - [`simulation`] — the time step;
 //! - [`scenario`] — hot/cold (§6.1.1);
@@ -36,6 +37,7 @@
 pub mod advection;
 pub mod cli;
 pub mod convergence;
+pub mod density;
 pub mod domain;
 pub mod error;
 #[path = "../experiments/mod.rs"]

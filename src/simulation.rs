@@ -10,15 +10,20 @@
 //!
 //! [`Simulation::step`] is exactly those four lines: [`Simulation::advect_densities`],
 //! [`Simulation::advect_velocity`], [`Simulation::add_buoyancy`] and
-//! [`Simulation::project`]. The departure points of the step are traced once
+//! [`Simulation::project`] — plus, for gridless and SELMA densities
+//! ([`crate::density`]), [`Simulation::evaluate_densities`], which samples
+//! them at the cell centres for the buoyancy force. The departure points of the step are traced once
 //! (all quantities move with the same velocity) and shared by every
 //! interpolation. Every buffer is allocated once in [`Simulation::new`]; a
 //! step allocates nothing but the projection's per-task scratch.
+
+use std::sync::Arc;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::advection::{self, Backtrace, Departures};
+use crate::density::{total_bytes, DensityModel, DensityOptions, StepInput};
 use crate::domain::Domain;
 use crate::field::Scalar;
 use crate::grid::{ScalarGrid, VectorGrid};
@@ -29,26 +34,45 @@ use crate::timing::{timed, StageTimes};
 pub struct Gas {
     /// Name used for output files (`<name>_NNNN.npy`).
     pub name: String,
-    /// Density on the velocity grid.
-    pub density: ScalarGrid,
+    /// How the density is held (gridded, gridless or SELMA).
+    pub model: DensityModel,
     /// Injection rate S(x) sampled on the grid (the notes' `inject` without Δt).
     pub source: ScalarGrid,
+    /// Injection rate S(x) as a field, for the modes that query it anywhere.
+    pub source_field: Scalar,
     /// Buoyancy coefficient: the force is `−g⃗ · lift · ρ`, so +1 rises (hot) and −1 sinks (cold).
     pub lift: f32,
-    /// Scratch for the advected density.
-    scratch: ScalarGrid,
 }
 
 impl Gas {
-    /// A gas starting empty, injected at rate `source(x)` per unit time.
+    /// A gridded gas starting empty, injected at rate `source(x)` per unit time.
     pub fn new(name: impl Into<String>, domain: Domain, source: &Scalar, lift: f32) -> Self {
+        Self::with_density(name, domain, source, lift, &DensityOptions::default())
+    }
+
+    /// A gas starting empty, held as `density` says.
+    ///
+    /// # Panics
+    /// If `density` fails [`DensityOptions::validate`] on `domain`.
+    pub fn with_density(
+        name: impl Into<String>,
+        domain: Domain,
+        source: &Scalar,
+        lift: f32,
+        density: &DensityOptions,
+    ) -> Self {
         Self {
             name: name.into(),
-            density: ScalarGrid::zeros(domain),
+            model: DensityModel::new(density, domain, None, Some(source.clone())),
             source: ScalarGrid::from_field(domain, &**source),
+            source_field: source.clone(),
             lift,
-            scratch: ScalarGrid::zeros(domain),
         }
+    }
+
+    /// The density at the velocity grid's cell centres after the last step.
+    pub fn density(&self) -> &ScalarGrid {
+        self.model.density()
     }
 
     /// Mass injected per step, `Σ S Δt Δx³`, as sampled on the grid.
@@ -118,6 +142,7 @@ impl Simulation {
         timed(&mut times.advect, || self.trace_departures());
         timed(&mut times.advect, || self.advect_densities());
         timed(&mut times.advect, || self.advect_velocity());
+        timed(&mut times.density, || self.evaluate_densities());
         timed(&mut times.force, || self.add_buoyancy());
         timed(&mut times.project, || self.project());
         self.step_index += 1;
@@ -130,18 +155,40 @@ impl Simulation {
         self.departures.trace(&self.velocity, p.dt, p.backtrace);
     }
 
-    /// Eq 6.4: `ρ ← ρ(x − uΔt) + S Δt` for every gas.
+    /// Eq 6.4: `ρ ← ρ(x − uΔt) + S Δt` for every gas, in its own
+    /// representation (gridded: eq 6.4 on the grid; gridless: keep the
+    /// velocity, eq 7.4; SELMA: advect the map, eq 8.8).
     pub fn advect_densities(&mut self) {
-        let (dep, p) = (&self.departures, self.params);
+        let p = self.params;
+        let snapshot = self
+            .gases
+            .iter()
+            .any(|g| g.model.keeps_velocity())
+            .then(|| Arc::new(self.velocity.clone()));
+        let input = StepInput {
+            velocity: &self.velocity,
+            snapshot: snapshot.as_ref(),
+            departures: &self.departures,
+            dt: p.dt,
+            backtrace: p.backtrace,
+        };
         for gas in &mut self.gases {
-            advection::interpolate_scalar(&gas.density, dep, &mut gas.scratch);
-            std::mem::swap(&mut gas.density, &mut gas.scratch);
-            gas.density
-                .as_slice_mut()
-                .par_iter_mut()
-                .zip(gas.source.as_slice().par_iter())
-                .for_each(|(rho, s)| *rho += s * p.dt);
+            gas.model.step(&input, &gas.source);
         }
+    }
+
+    /// Evaluate gridless and SELMA densities at the cell centres, the input
+    /// of the buoyancy force (gridded densities already live there).
+    pub fn evaluate_densities(&mut self) {
+        for gas in &mut self.gases {
+            gas.model.evaluate_centres();
+        }
+    }
+
+    /// Bytes held by the density representations of all gases, each shared
+    /// buffer (a gridless velocity grid) counted once.
+    pub fn density_bytes(&self) -> usize {
+        total_bytes(self.gases.iter().flat_map(|g| g.model.buffers()))
     }
 
     /// Eq 6.5, first term: `u ← u(x − uΔt)`.
@@ -165,7 +212,7 @@ impl Simulation {
                 for (n, un) in u.iter_mut().enumerate() {
                     let mut lift = 0.0;
                     for g in gases {
-                        lift += g.lift * g.density.as_slice()[base + n];
+                        lift += g.lift * g.density().as_slice()[base + n];
                     }
                     *un -= p.dt * lift * p.gravity;
                 }

@@ -10,7 +10,8 @@ pub mod semi_lagrangian;
 use serde::{Deserialize, Serialize};
 
 pub use semi_lagrangian::{
-    advect_scalar, advect_vector, interpolate_scalar, interpolate_vector, Departures,
+    advect_scalar, advect_vector, departure_point, interpolate_scalar, interpolate_vector,
+    Departures,
 };
 
 /// How the departure point `x − ∫u dt` of a semi-Lagrangian step is traced.
