@@ -40,7 +40,7 @@ fn benches(c: &mut Criterion) {
         });
         let mut rho = ScalarGrid::zeros(*sim.domain());
         g.bench_function(BenchmarkId::new("sl_interpolate_scalar", res), |b| {
-            b.iter(|| interpolate_scalar(&sim.gases[0].density, &dep, &mut rho))
+            b.iter(|| interpolate_scalar(sim.gases[0].density(), &dep, &mut rho))
         });
         let mut u = sim.velocity.clone();
         g.bench_function(BenchmarkId::new("sl_interpolate_vector", res), |b| {

@@ -75,9 +75,9 @@ pub struct RunArgs {
     /// SELMA map grid cells along the longest axis (default: --res; finer is SELMA^fine).
     #[arg(long, allow_negative_numbers = true)]
     pub map_res: Option<usize>,
-    /// SELMA: re-anchor the map every K steps (0: never).
+    /// SELMA: re-anchor the map when its lattice has deformed by more than this many map cells (0: never).
     #[arg(long, allow_negative_numbers = true)]
-    pub selma_restart: Option<usize>,
+    pub selma_remap: Option<f32>,
     /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
     #[arg(long, allow_negative_numbers = true)]
     pub sample_res: Option<usize>,
@@ -116,7 +116,7 @@ impl Default for RunArgs {
             save_every: None,
             density: None,
             map_res: None,
-            selma_restart: None,
+            selma_remap: None,
             sample_res: None,
             metrics_every: None,
             force: false,
@@ -148,7 +148,7 @@ impl RunArgs {
             backtrace,
             save_every,
             density,
-            selma_restart,
+            selma_remap,
             metrics_every,
             seed
         );

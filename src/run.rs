@@ -165,7 +165,10 @@ pub fn run<C: Serialize>(
         previews: vec![],
         stage_seconds: Default::default(),
         final_mirror_error: None,
-        density_mode: sim.gases.first().map_or_else(Default::default, |g| g.model.mode()),
+        density_mode: sim
+            .gases
+            .first()
+            .map_or_else(Default::default, |g| g.model.mode()),
         final_density_bytes: 0,
         grid_source_rates: sim.gases.iter().map(|g| g.source.total()).collect(),
         source_rates,
@@ -188,8 +191,8 @@ pub fn run<C: Serialize>(
         let div = metrics::divergence_stats(&sim.velocity);
         let mirror = (sim.gases.len() == 2)
             .then(|| metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density()));
-        let measures: Option<Vec<DensityMeasures>> =
-            (frame % every == 0 || frame == opts.frames).then(|| {
+        let measures: Option<Vec<DensityMeasures>> = (frame % every == 0 || frame == opts.frames)
+            .then(|| {
                 timed(&mut times.metrics, || {
                     sim.gases.iter().map(|g| probe.measure(&g.model)).collect()
                 })

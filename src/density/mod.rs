@@ -13,8 +13,8 @@
 //! - [`selma`] — ch. 8, eqs 8.1–8.8: a backward map `X` sampled on its own
 //!   grid and advected every step, `ρ = ρ₀ ∘ X`; continuous injection is
 //!   accumulated in the map's reference coordinates and the map is
-//!   re-anchored every few steps (see [`selma`] for the design and its
-//!   error). Constant memory and query cost.
+//!   re-anchored when it has deformed too far (see [`selma`] for the design
+//!   and its error). Constant memory and query cost.
 //!
 //! All three trace characteristics with the same backtrace as the velocity
 //! ([`crate::advection::departure_point`]), so on the same velocity history
@@ -84,19 +84,21 @@ impl std::fmt::Display for DensityMode {
     }
 }
 
-/// Default SELMA re-anchoring period in steps (see [`selma`]).
-pub const DEFAULT_SELMA_RESTART: usize = 16;
+/// Default SELMA re-anchoring threshold: the tracked reference lattice's
+/// deformation in map cells (see [`selma`]).
+pub const DEFAULT_SELMA_REMAP: f32 = 2.0;
 
 /// How the densities of a run are held; shared by all its gases.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DensityOptions {
     /// The representation.
     pub mode: DensityMode,
     /// SELMA: cells along the longest axis of the map grid (`None`: the
     /// velocity grid's). Finer than the velocity is the notes' SELMA^fine.
     pub map_res: Option<usize>,
-    /// SELMA: re-anchor the map every this many steps (0: never; see [`selma`]).
-    pub selma_restart: usize,
+    /// SELMA: re-anchor the map when the tracked lattice has deformed by
+    /// more than this many map cells (0: never; see [`selma`]).
+    pub selma_remap: f32,
 }
 
 impl Default for DensityOptions {
@@ -104,7 +106,7 @@ impl Default for DensityOptions {
         Self {
             mode: DensityMode::Gridded,
             map_res: None,
-            selma_restart: DEFAULT_SELMA_RESTART,
+            selma_remap: DEFAULT_SELMA_REMAP,
         }
     }
 }
@@ -126,9 +128,9 @@ impl DensityOptions {
         let Some(res) = self.map_res else {
             return Ok(*domain);
         };
-        let map = domain.with_resolution(res).map_err(|e| {
-            InputError::new(format!("--map-res {res} is invalid: {e}"))
-        })?;
+        let map = domain
+            .with_resolution(res)
+            .map_err(|e| InputError::new(format!("--map-res {res} is invalid: {e}")))?;
         let (a, b) = (map.size(), domain.size());
         if (a - b).abs().max_element() > 1e-4 * b.max_element() {
             let max = domain.dims.iter().copied().max().unwrap_or(1);
@@ -143,6 +145,12 @@ impl DensityOptions {
 
     /// Check the options against the velocity grid's domain.
     pub fn validate(&self, domain: &Domain) -> Result<(), InputError> {
+        if !(self.selma_remap.is_finite() && self.selma_remap >= 0.0) {
+            return Err(InputError::new(format!(
+                "selma_remap is {}; it must be a finite number of map cells ≥ 0 (0: never re-anchor)",
+                self.selma_remap
+            )));
+        }
         self.map_domain(domain).map(|_| ())
     }
 }
@@ -214,8 +222,8 @@ pub enum DensityModel {
     Gridded(Gridded),
     /// The velocity history and the source (eq 7.4).
     Gridless(Gridless),
-    /// A backward map on its own grid (eq 8.8).
-    Selma(Selma),
+    /// A backward map on its own grid (eq 8.8), boxed: it is the largest.
+    Selma(Box<Selma>),
 }
 
 impl DensityModel {
@@ -238,13 +246,13 @@ impl DensityModel {
                 let map = options
                     .map_domain(&domain)
                     .unwrap_or_else(|e| panic!("invalid density options: {e}"));
-                DensityModel::Selma(Selma::new(
+                DensityModel::Selma(Box::new(Selma::new(
                     domain,
                     map,
                     initial,
                     source,
-                    options.selma_restart,
-                ))
+                    options.selma_remap,
+                )))
             }
         }
     }
@@ -402,9 +410,18 @@ mod tests {
     #[test]
     fn shared_buffers_are_counted_once() {
         let b = [
-            Buffer { addr: 16, bytes: 100 },
-            Buffer { addr: 16, bytes: 100 },
-            Buffer { addr: 400, bytes: 8 },
+            Buffer {
+                addr: 16,
+                bytes: 100,
+            },
+            Buffer {
+                addr: 16,
+                bytes: 100,
+            },
+            Buffer {
+                addr: 400,
+                bytes: 8,
+            },
         ];
         assert_eq!(total_bytes(b), 108);
     }
@@ -420,6 +437,7 @@ mod tests {
         assert!(opts(2).validate(&d).is_err());
         let flat = Domain::new(Vec3::ZERO, 1.0, [16, 8, 16]).unwrap();
         assert!(opts(24).validate(&flat).is_ok());
-        assert!(opts(20).validate(&flat).is_err());
+        assert!(opts(20).validate(&flat).is_ok());
+        assert!(opts(21).validate(&flat).is_err());
     }
 }

@@ -286,7 +286,10 @@ mod tests {
         // difference at h = 1/2 scales it by sin(kh)/(kh).
         let k = std::f64::consts::TAU * 3.0 / 8.0;
         let expect = k * 2.0 / std::f64::consts::PI * (k * 0.5).sin() / (k * 0.5);
-        assert!((low.mean_gradient - expect).abs() < 2e-2 * expect, "{low:?}");
+        assert!(
+            (low.mean_gradient - expect).abs() < 2e-2 * expect,
+            "{low:?}"
+        );
     }
 
     #[test]

@@ -40,18 +40,25 @@
 //! coordinates on the map lattice. `Y_k(ξ)` of every lattice node is tracked
 //! forward by inverting the step's backtrace with a fixed-point iteration,
 //! `y' ← y + (y' − B(y'))`, so the injected gas lands where the backtrace
-//! says (to `(Δt|∇u|)^4` relative). The source is averaged over the 2×2×2
+//! says (to `(Δt|∇u|)³` relative). The source is averaged over the 2×2×2
 //! sub-points of a map cell around `Y_k(ξ)`, so the injected mass equals the
 //! source integral at twice the map resolution — the quadrature the run's
 //! fine metrics use.
 //!
 //! A forward-tracked lattice deforms without bound, and with it the sampling
 //! of the fresh source: reference neighbours drift apart in the flow's
-//! stretching directions. So the map is **re-anchored** every `K` steps
-//! (`--selma-restart K`, DESIGN.md's design (b)): `R` is resampled as the
-//! 2×2×2 box average of the current density over each map cell, `X` reset
-//! to the identity and the lattice to rest. `K = 0` never re-anchors (pure
-//! design (a)); `K = 1` is a gridded density at map resolution.
+//! stretching directions, and gas injected at one node is interpolated
+//! toward nodes now far away (streaks, lost mass). So the map is
+//! **re-anchored** (DESIGN.md's design (b)) when the lattice has deformed
+//! too far: when some pair of neighbouring reference nodes has moved more
+//! than `τ` map cells relative to each other
+//! ([`Selma::lattice_deformation`]; `--selma-remap τ`, default
+//! [`super::DEFAULT_SELMA_REMAP`]). Re-anchoring resamples `R` as the 2×2×2
+//! box average of the current density over each map cell, resets `X` to
+//! the identity and the lattice to rest. In the hot/cold flow at 32³ this
+//! happens every ~30 steps while the flow is slow and every ~10 once the
+//! plumes collide. `τ = 0` never re-anchors (pure design (a), the notes'
+//! SELMA for a source-free `ρ₀`).
 //!
 //! Memory: 11 floats per map cell (`D` and its scratch, the tracked lattice
 //! `Y`, `R` and its scratch), constant in the number of steps; a query is
@@ -66,13 +73,13 @@
 //!   trilinearly in reference coordinates: edges of the injected gas blurred
 //!   over about one (deformed) map cell — grows with the time since the
 //!   last re-anchoring;
-//! - one density resampling every `K` steps (box filter of width `h` plus
+//! - one density resampling per re-anchoring (box filter of width `h` plus
 //!   trilinear reconstruction), instead of the gridded path's every step;
 //!   mass is kept to the fine quadrature's accuracy;
 //! - `ρ₀` is composed analytically until the first re-anchoring, then
 //!   carried on the map grid.
 //!
-//! Every term vanishes as `h → 0` for any `K`, so SELMA converges to the
+//! Every term vanishes as `h → 0` for any `τ`, so SELMA converges to the
 //! gridless density as the map grid refines.
 
 use std::sync::Arc;
@@ -88,7 +95,7 @@ use crate::grid::{ScalarGrid, VectorGrid};
 
 /// Corrector iterations of the forward (inverse-backtrace) step of the
 /// tracked lattice, after the predictor.
-const FORWARD_ITERATIONS: usize = 3;
+const FORWARD_ITERATIONS: usize = 2;
 
 /// Offsets of the 2×2×2 sub-points of a cell, in cells.
 const SUB: [Vec3; 8] = [
@@ -155,11 +162,10 @@ pub struct Selma {
     disp_scratch: VectorGrid,
     /// World positions `Y(ξ)` of the reference lattice nodes, wrapped.
     lattice: VectorGrid,
-    /// Scratch for re-anchoring (absent when `restart_every == 0`).
+    /// Scratch for re-anchoring (absent when `remap == 0`).
     fresh: Option<ScalarGrid>,
     source: Option<Scalar>,
-    restart_every: usize,
-    since_restart: usize,
+    remap: f32,
     restarts: usize,
     centres: ScalarGrid,
 }
@@ -167,7 +173,8 @@ pub struct Selma {
 impl Selma {
     /// A density on the velocity grid `domain` with its map on `map`
     /// (which must tile the same box), starting at `initial`, injected at
-    /// rate `source`, re-anchored every `restart_every` steps (0: never).
+    /// rate `source`, re-anchored when the lattice deformation exceeds
+    /// `remap` map cells (0: never).
     ///
     /// # Panics
     /// If `map` is not the same box as `domain`.
@@ -176,7 +183,7 @@ impl Selma {
         map: Domain,
         initial: Option<Scalar>,
         source: Option<Scalar>,
-        restart_every: usize,
+        remap: f32,
     ) -> Self {
         assert!(
             (map.origin - domain.origin).abs().max_element() <= 1e-5 * domain.size().max_element()
@@ -196,10 +203,9 @@ impl Selma {
             field,
             disp_scratch: VectorGrid::zeros(map),
             lattice,
-            fresh: (restart_every > 0).then(|| ScalarGrid::zeros(map)),
+            fresh: (remap > 0.0).then(|| ScalarGrid::zeros(map)),
             source,
-            restart_every,
-            since_restart: 0,
+            remap,
             restarts: 0,
             centres,
         }
@@ -215,14 +221,46 @@ impl Selma {
         self.restarts
     }
 
+    /// How far the tracked lattice has deformed since the last
+    /// re-anchoring: the largest `|Y(ξ + h e_a) − Y(ξ) − h e_a| / h` over
+    /// nodes `ξ` and axes `a` — in map cells, how far some pair of
+    /// neighbouring reference nodes has moved relative to each other.
+    pub fn lattice_deformation(&self) -> f32 {
+        let md = *self.map_domain();
+        let [nx, ny, nz] = md.dims;
+        let (size, h) = (md.size(), md.cell);
+        let y = self.lattice.as_vec3();
+        let unwrap = |d: Vec3| d - size * (d / size).round();
+        (0..nz)
+            .into_par_iter()
+            .map(|k| {
+                let mut m = 0.0f32;
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let p = y[md.index(i, j, k)];
+                        let nb = [
+                            (y[md.index((i + 1) % nx, j, k)], Vec3::X),
+                            (y[md.index(i, (j + 1) % ny, k)], Vec3::Y),
+                            (y[md.index(i, j, (k + 1) % nz)], Vec3::Z),
+                        ];
+                        for (q, e) in nb {
+                            m = m.max((unwrap(q - p) - h * e).length());
+                        }
+                    }
+                }
+                m / h
+            })
+            .reduce(|| 0.0, f32::max)
+    }
+
     /// Advect the map (eq 8.8), move the reference lattice forward, inject
-    /// the source in reference coordinates, and re-anchor when due.
+    /// the source in reference coordinates, and re-anchor when the lattice
+    /// has deformed by more than the threshold.
     pub fn step(&mut self, input: &StepInput<'_>) {
         self.advect_map(input);
         self.track_lattice(input);
         self.inject(input.dt);
-        self.since_restart += 1;
-        if self.restart_every > 0 && self.since_restart == self.restart_every {
+        if self.remap > 0.0 && self.lattice_deformation() > self.remap {
             self.restart();
         }
     }
@@ -257,7 +295,8 @@ impl Selma {
                     for j in 0..ny {
                         for i in 0..nx {
                             let p = md.cell_center(i, j, k);
-                            let d = vd.world_of(departure_point(u, vd.grid_coords(p), dt_cells, bt));
+                            let d =
+                                vd.world_of(departure_point(u, vd.grid_coords(p), dt_cells, bt));
                             out[j * nx + i] = (d - p) + old.sample_grid_coords(md.grid_coords(d));
                         }
                     }
@@ -343,7 +382,6 @@ impl Selma {
         self.field.initial = None;
         Arc::make_mut(&mut self.field.disp).as_slice_mut().fill(0.0);
         reset_lattice(&mut self.lattice);
-        self.since_restart = 0;
         self.restarts += 1;
     }
 
@@ -395,4 +433,87 @@ fn reset_lattice(lattice: &mut VectorGrid) {
             md.slab_centers(k, centres);
             out.copy_from_slice(centres);
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::advection::{Backtrace, Departures};
+
+    /// A shear-and-swirl velocity on a 16³ box of edge 8.
+    fn velocity() -> VectorGrid {
+        struct Swirl;
+        impl crate::field::VectorField for Swirl {
+            fn eval(&self, p: Vec3) -> Vec3 {
+                let k = std::f32::consts::TAU / 8.0;
+                Vec3::new((k * p.y).sin(), (k * p.z).cos(), 0.5 * (k * p.x).sin())
+            }
+        }
+        VectorGrid::from_field(Domain::cube(16, 8.0).unwrap(), &Swirl)
+    }
+
+    #[test]
+    fn the_tracked_lattice_inverts_the_backtrace() {
+        let u = velocity();
+        let d = *u.domain();
+        let (dt, bt) = (0.4, Backtrace::Rk2);
+        let mut dep = Departures::new(d);
+        dep.trace(&u, dt, bt);
+        let mut s = Selma::new(d, d, None, None, 0.0);
+        let input = StepInput {
+            velocity: &u,
+            snapshot: None,
+            departures: &dep,
+            dt,
+            backtrace: bt,
+        };
+        s.step(&input);
+        // B(Y(ξ)) = ξ: moving forward then back returns every node home.
+        let mut worst = 0.0f32;
+        for (n, y) in s.lattice.as_vec3().iter().enumerate() {
+            let (i, j, k) = (n % 16, (n / 16) % 16, n / 256);
+            let back = departure_point(&u, d.grid_coords(*y), dt / d.cell, bt);
+            let home = Vec3::new(i as f32, j as f32, k as f32);
+            let miss = back - home;
+            let miss = miss - 16.0 * (miss / 16.0).round();
+            worst = worst.max(miss.length());
+        }
+        // Displacement ≤ 0.9 cells and Δt|∇u| ≤ 0.4·(2π/8) ≈ 0.31: after the
+        // predictor and two corrections the residual is ≤ 0.31³ · 0.9 ≈ 0.027.
+        assert!(
+            worst < 0.02,
+            "lattice misses its backtrace by {worst} cells"
+        );
+        // And the map X(x) = x + D(x) at the nodes is the backtrace itself.
+        let x0 = s.field.disp.as_vec3()[0] / d.cell;
+        assert!((x0 - (dep.points()[0] - Vec3::ZERO)).length() < 1e-5);
+    }
+
+    #[test]
+    fn re_anchoring_resets_the_map_and_keeps_the_density() {
+        let u = velocity();
+        let d = *u.domain();
+        let (dt, bt) = (0.4, Backtrace::Rk2);
+        let mut dep = Departures::new(d);
+        dep.trace(&u, dt, bt);
+        let source: Scalar =
+            crate::field::ops::mask(crate::field::ops::sphere(Vec3::splat(4.0), 1.5));
+        let mut s = Selma::new(d, d, None, Some(source), 1e-3);
+        let input = StepInput {
+            velocity: &u,
+            snapshot: None,
+            departures: &dep,
+            dt,
+            backtrace: bt,
+        };
+        s.step(&input);
+        s.step(&input);
+        assert_eq!(s.restarts(), 2);
+        assert!(s.field.disp.as_slice().iter().all(|&v| v == 0.0));
+        assert_eq!(s.lattice_deformation(), 0.0);
+        // Two steps of a 1.5-radius sphere at rate 1: mass ≈ 2 Δt (4/3)π 1.5³.
+        let mass = s.field.reference.total();
+        let expect = 2.0 * 0.4 * 4.0 / 3.0 * std::f64::consts::PI * 1.5f64.powi(3);
+        assert!((mass - expect).abs() < 0.03 * expect, "{mass} vs {expect}");
+    }
 }

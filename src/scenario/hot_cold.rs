@@ -14,7 +14,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use crate::advection::Backtrace;
-use crate::density::{DensityMode, DensityOptions, DEFAULT_SELMA_RESTART};
+use crate::density::{DensityMode, DensityOptions, DEFAULT_SELMA_REMAP};
 use crate::domain::Domain;
 use crate::error::InputError;
 use crate::field::ops;
@@ -50,8 +50,9 @@ pub struct HotColdConfig {
     pub density: DensityMode,
     /// SELMA map grid cells along the longest axis (default: `res`).
     pub map_res: Option<usize>,
-    /// SELMA: re-anchor the map every this many steps (0: never).
-    pub selma_restart: usize,
+    /// SELMA: re-anchor the map when its tracked lattice has deformed by
+    /// more than this many map cells (0: never).
+    pub selma_remap: f32,
     /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
     pub sample_res: Option<usize>,
     /// Compute the fine-sampled density metrics every this many steps (≥ 1).
@@ -77,7 +78,7 @@ impl Default for HotColdConfig {
             save_every: 10,
             density: DensityMode::Gridded,
             map_res: None,
-            selma_restart: DEFAULT_SELMA_RESTART,
+            selma_remap: DEFAULT_SELMA_REMAP,
             sample_res: None,
             metrics_every: 1,
             force: false,
@@ -135,7 +136,7 @@ impl HotColdConfig {
         DensityOptions {
             mode: self.density,
             map_res: self.map_res,
-            selma_restart: self.selma_restart,
+            selma_remap: self.selma_remap,
         }
     }
 
