@@ -99,7 +99,8 @@ const SOURCE_REFINE: usize = 4;
 ///   exact budget `steps · Δt · ∫S dV`), `<g>_grad` (mean |∇ρ| at 2×),
 ///   `<g>_subgrid` (share of spectral energy beyond the velocity grid's
 ///   Nyquist index) — see [`crate::density::probe`];
-/// - `mirror_error` (two gases; at the cell centres);
+/// - `mirror_error` (two gases; densities at the cell centres) and
+///   `vel_mirror_error` (the velocity, [`metrics::velocity_mirror_error`]);
 /// - `density_bytes` (all gases' representations, shared buffers once);
 /// - wall seconds per stage `t_advect, t_density` (gridless/SELMA evaluation
 ///   at the cell centres for buoyancy), `t_force, t_project, t_output,
@@ -116,6 +117,7 @@ pub fn metric_columns(sim: &Simulation) -> Vec<String> {
     if sim.gases.len() == 2 {
         cols.push("mirror_error".into());
     }
+    cols.push("vel_mirror_error".into());
     cols.push("density_bytes".into());
     cols.extend(
         [
@@ -223,6 +225,7 @@ pub fn run<C: Serialize>(
             ]);
         }
         row.extend(mirror.map(|m| m as f64));
+        row.push(metrics::velocity_mirror_error(&sim.velocity) as f64);
         row.push(density_bytes as f64);
         row.extend([
             times.advect,
