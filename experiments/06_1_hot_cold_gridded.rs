@@ -5,17 +5,20 @@
 //! flow around each other. Semi-Lagrangian advection, FFT projection, 50³ as
 //! in the notes.
 //!
-//! Run: `smokelab experiment 06-1` (about 10 s on 2 cores; `--full` is the
+//! Run: `smokelab experiment 06-1` (about 15 s on 2 cores; `--full` is the
 //! same 50³ run with twice the frames; `--smoke` is 16³ for tests).
 //!
-//! Writes `results/06-1/`: `sequence.png` (the frame sequence side by side,
-//! fig 6.1), `preview_NNNN.png` per saved frame (fig 6.2 is the last),
-//! `metrics.csv`, `manifest.json`, and the volumes `*_NNNN.npy` (git-ignored).
+//! Writes `results/06-1/`: `sequence.png` (volume renders of the frame
+//! sequence side by side, fig 6.1), `render_NNNN.png`/`.exr` per saved frame
+//! (fig 6.2 is the last), `slices.png` and `preview_NNNN.png` (mid-plane
+//! slices, a diagnostic), `metrics.csv`, `manifest.json`, and the volumes
+//! `*_NNNN.npy` (git-ignored).
 
 use anyhow::Result;
 
 use super::{Context, Experiment, Size};
 use crate::io;
+use crate::render::frames::FrameRender;
 use crate::run::{self, RunOptions, SaveFrames};
 use crate::scenario::hot_cold::HotColdConfig;
 
@@ -24,7 +27,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     id: "06-1",
     reproduces: "figs 6.1, 6.2",
     title: "hot/cold buoyant gases, all gridded, 50³",
-    cost: "~10 s",
+    cost: "~15 s",
     run,
 };
 
@@ -43,6 +46,12 @@ fn run(ctx: &Context) -> Result<()> {
         },
     };
     let frames: Vec<usize> = (1..=6).map(|i| i * config.frames / 6).collect();
+    let render = FrameRender::new(
+        SaveFrames::List(frames.clone()),
+        (256, 256),
+        None,
+        &config.domain()?,
+    )?;
     let mut sim = config.build()?;
     io::create_output_dir(&ctx.out)?;
     let opts = RunOptions {
@@ -52,15 +61,21 @@ fn run(ctx: &Context) -> Result<()> {
         progress: ctx.progress,
         metrics_every: config.metrics_every,
         sample_res: config.sample_res,
+        render: Some(render),
     };
     let summary = run::run(&mut sim, &opts, &config, config.seed)?;
-    let images = summary
-        .previews
-        .iter()
-        .map(|p| Ok(image::open(p)?.to_rgb8()))
-        .collect::<Result<Vec<_>>>()?;
+    let strip = |paths: &mut dyn Iterator<Item = &std::path::PathBuf>| {
+        let images = paths
+            .map(|p| Ok(image::open(p)?.to_rgb8()))
+            .collect::<Result<Vec<_>>>()?;
+        anyhow::Ok(io::preview::side_by_side(&images, 4))
+    };
     io::write_png(
         &ctx.out.join("sequence.png"),
-        &io::preview::side_by_side(&images, 4),
+        &strip(&mut summary.renders.iter().map(|r| &r.png))?,
+    )?;
+    io::write_png(
+        &ctx.out.join("slices.png"),
+        &strip(&mut summary.previews.iter())?,
     )
 }

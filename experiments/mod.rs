@@ -6,6 +6,10 @@
 //! `smokelab experiment --list`. Every experiment writes into `results/<id>/`
 //! by default: images, `data.csv` or `metrics.csv`, and `manifest.json`.
 
+#[path = "A_2_fournier_forand.rs"]
+mod fournier_forand;
+#[path = "A_1_henyey_greenstein.rs"]
+mod henyey_greenstein;
 #[path = "06_1_hot_cold_gridded.rs"]
 mod hot_cold_gridded;
 
@@ -52,7 +56,11 @@ pub struct Experiment {
 }
 
 /// Every experiment, in the notes' order.
-pub const ALL: &[Experiment] = &[hot_cold_gridded::EXPERIMENT];
+pub const ALL: &[Experiment] = &[
+    hot_cold_gridded::EXPERIMENT,
+    henyey_greenstein::EXPERIMENT,
+    fournier_forand::EXPERIMENT,
+];
 
 /// The ids of all experiments.
 pub fn ids() -> Vec<&'static str> {

@@ -34,6 +34,8 @@ pub enum Command {
     Run(RunArgs),
     /// Run a numbered experiment that reproduces a figure of the notes.
     Experiment(ExperimentArgs),
+    /// Render saved density volumes (.npy) to EXR and PNG.
+    Render(crate::render::command::RenderArgs),
 }
 
 /// `smokelab run`.
@@ -99,6 +101,18 @@ pub struct RunArgs {
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Volume-render frames to render_NNNN.exr/.png.
+    #[arg(long)]
+    pub render: bool,
+    /// Render every K frames and the last (default: --save-every).
+    #[arg(long, requires = "render", allow_negative_numbers = true)]
+    pub render_every: Option<usize>,
+    /// Render image size WxH (default 256x256).
+    #[arg(long, requires = "render")]
+    pub image: Option<String>,
+    /// Render march step Δs (default: the cell size).
+    #[arg(long, requires = "render", allow_negative_numbers = true)]
+    pub march_step: Option<f32>,
 }
 
 impl Default for RunArgs {
@@ -124,6 +138,10 @@ impl Default for RunArgs {
             out: None,
             threads: None,
             quiet: false,
+            render: false,
+            render_every: None,
+            image: None,
+            march_step: None,
         }
     }
 }
@@ -209,6 +227,10 @@ pub fn execute(cli: Cli) -> Result<()> {
         None => run_scenario(&RunArgs::default()),
         Some(Command::Run(args)) => run_scenario(&args),
         Some(Command::Experiment(args)) => run_experiment(&args),
+        Some(Command::Render(args)) => {
+            init_threads(args.threads)?;
+            crate::render::command::run(&args)
+        }
     }
 }
 
@@ -222,6 +244,7 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
                 .clone()
                 .unwrap_or_else(|| default_run_dir("hot-cold"));
             io::check_output_dir(&out)?;
+            let render = crate::render::frames::FrameRender::from_run_flags(args, &config)?;
             let mut sim = config.build()?;
             io::create_output_dir(&out)?;
             let opts = RunOptions {
@@ -231,6 +254,7 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
                 progress: !args.quiet,
                 metrics_every: config.metrics_every,
                 sample_res: config.sample_res,
+                render,
             };
             let summary = run::run(&mut sim, &opts, &config, config.seed)?;
             println!(

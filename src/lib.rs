@@ -16,9 +16,11 @@
 //! - [`convergence`] — observed order of accuracy for convergence tests;
 //! - [`density`] — gridded, gridless and SELMA densities (§6.2, ch. 7–8);
 //! - [`timing`] — stage timers, peak memory;
+//! - [`plot`] — line plots (PNG + SVG) for the experiments;
 //! - [`simulation`] — the time step;
 //! - [`scenario`] — hot/cold (§6.1.1);
 //! - [`io`] — atomic `.npy`/PNG/JSON/CSV writers, manifests, previews;
+//! - [`render`] — the volume ray marcher (appendix A), EXR/PNG output;
 //! - [`run`] — driving a simulation through its frames;
 //! - [`experiments`] — numbered reproductions of the notes' figures;
 //! - [`cli`] — the `smokelab` command line.
@@ -46,7 +48,9 @@ pub mod field;
 pub mod grid;
 pub mod io;
 pub mod metrics;
+pub mod plot;
 pub mod projection;
+pub mod render;
 pub mod run;
 pub mod scenario;
 pub mod simulation;

@@ -9,6 +9,7 @@
 //! - `metrics.csv` — one row per step, rewritten whole at every saved frame
 //!   (columns: [`metric_columns`]); the fine-sampled density measures are
 //!   computed every `metrics_every` steps and the last, `NaN` in between;
+//! - `render_NNNN.exr`, `render_NNNN.png` — volume renders (with `--render`);
 //! - `manifest.json` — configuration, machine, commit, wall time, peak memory.
 //!
 //! Frame `N` is the state after `N` steps.
@@ -25,6 +26,7 @@ use crate::density::DensityMode;
 use crate::grid::ScalarGrid;
 use crate::io::{self, manifest::Manifest, preview, CsvLog};
 use crate::metrics;
+use crate::render::frames::{FrameRecord, FrameRender};
 use crate::simulation::Simulation;
 use crate::timing::timed;
 
@@ -44,6 +46,8 @@ pub struct RunOptions {
     pub metrics_every: usize,
     /// Also write each gas sampled with this many cells along the longest axis.
     pub sample_res: Option<usize>,
+    /// Frames to volume-render, and how (`None`: no renders).
+    pub render: Option<FrameRender>,
 }
 
 /// The frames whose volumes and previews are written.
@@ -56,7 +60,8 @@ pub enum SaveFrames {
 }
 
 impl SaveFrames {
-    fn contains(&self, frame: usize, last: usize) -> bool {
+    /// Whether `frame` of a run of `last` frames is selected.
+    pub fn contains(&self, frame: usize, last: usize) -> bool {
         match self {
             SaveFrames::Every(0) => false,
             SaveFrames::Every(k) => frame % k == 0 || frame == last,
@@ -88,6 +93,8 @@ pub struct RunSummary {
     pub grid_source_rates: Vec<f64>,
     /// Per gas, the fine-sampled measures at the last step.
     pub final_measures: Vec<DensityMeasures>,
+    /// Volume renders written, in frame order, with their statistics.
+    pub renders: Vec<FrameRecord>,
 }
 
 /// Refinement of the quadrature of `∫S dV` for the injected-mass budget.
@@ -175,6 +182,7 @@ pub fn run<C: Serialize>(
         grid_source_rates: sim.gases.iter().map(|g| g.source.total()).collect(),
         source_rates,
         final_measures: vec![],
+        renders: vec![],
     };
     let mut probe = DensityProbe::new(domain);
     let every = opts.metrics_every.max(1);
@@ -207,6 +215,10 @@ pub fn run<C: Serialize>(
             summary.previews.push(preview_path(&opts.out, frame));
         }
         let density_bytes = sim.density_bytes();
+        if let Some(r) = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames)) {
+            let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
+            summary.renders.push(record);
+        }
         let mut row = vec![
             frame as f64,
             sim.time() as f64,

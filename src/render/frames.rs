@@ -1,0 +1,145 @@
+//! Rendering a simulation's frames: `render_NNNN.exr` and `render_NNNN.png`
+//! beside the volumes a run writes (`smokelab run … --render`, experiment 06-1).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Result;
+use serde::Serialize;
+
+use super::camera::{check_image_size, parse_image_size, Camera};
+use super::output::{self, Display, ExrPrecision};
+use super::phase::Phase;
+use super::{check_step, look, render, RenderSettings, RenderStats, Scene};
+use crate::cli::RunArgs;
+use crate::domain::Domain;
+use crate::error::InputError;
+use crate::field::Scalar;
+use crate::io;
+use crate::run::SaveFrames;
+use crate::scenario::hot_cold::HotColdConfig;
+use crate::simulation::Simulation;
+
+/// Which frames of a run to render, and how.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRender {
+    /// The frames to render.
+    #[serde(skip)]
+    pub frames: SaveFrames,
+    /// Image width and height in pixels.
+    pub image: (u32, u32),
+    /// March step Δs (`None`: the cell size).
+    pub step: Option<f32>,
+    /// EXR sample precision.
+    pub precision: ExrPrecision,
+}
+
+impl FrameRender {
+    /// Render `frames` of a simulation on `domain` at `image` pixels with
+    /// march step `step`; checks the image size and the step.
+    pub fn new(
+        frames: SaveFrames,
+        image: (u32, u32),
+        step: Option<f32>,
+        domain: &Domain,
+    ) -> Result<Self, InputError> {
+        check_image_size(image.0, image.1)?;
+        if let Some(s) = step {
+            check_step(s, domain)?;
+        }
+        Ok(Self {
+            frames,
+            image,
+            step,
+            precision: ExrPrecision::Half,
+        })
+    }
+
+    /// The renders `smokelab run hot-cold --render [--render-every K]
+    /// [--image WxH] [--march-step S]` asks for (`None` without `--render`).
+    /// K defaults to the run's `save_every`; the default image is 256×256.
+    pub fn from_run_flags(
+        args: &RunArgs,
+        config: &HotColdConfig,
+    ) -> Result<Option<Self>, InputError> {
+        if !args.render {
+            return Ok(None);
+        }
+        let every = args.render_every.unwrap_or(config.save_every);
+        if every == 0 {
+            return Err(InputError::new(
+                "--render needs --render-every K with K ≥ 1 (--save-every is 0)",
+            ));
+        }
+        let image = match &args.image {
+            Some(s) => parse_image_size(s)?,
+            None => (256, 256),
+        };
+        Self::new(
+            SaveFrames::Every(every),
+            image,
+            args.march_step,
+            &config.domain()?,
+        )
+        .map(Some)
+    }
+
+    /// Whether frame `frame` of a run of `last` frames is rendered.
+    pub fn wants(&self, frame: usize, last: usize) -> bool {
+        self.frames.contains(frame, last)
+    }
+
+    /// Render the gases of `sim` into `out/render_NNNN.{exr,png}`.
+    pub fn render_frame(&self, sim: &Simulation, out: &Path, frame: usize) -> Result<FrameRecord> {
+        let domain = *sim.domain();
+        let volumes = sim
+            .gases
+            .iter()
+            .map(|g| {
+                let color = if g.lift >= 0.0 { look::HOT } else { look::COLD };
+                // The density itself, in its own representation: gridless
+                // and SELMA renders query the procedural field (§6.2, ch. 8).
+                let density: Scalar = g.model.field();
+                look::smoke(&g.name, density, color, look::KAPPA, look::GLOW)
+            })
+            .collect();
+        let scene = Scene {
+            bounds: domain,
+            volumes,
+            lights: vec![look::key_light(&domain)],
+            phase: Phase::Isotropic,
+        };
+        let settings = RenderSettings {
+            step: self.step,
+            ..RenderSettings::new(Camera::framing(&domain, self.image.0, self.image.1, 0.9))
+        };
+        let r = render(&scene, &settings)?;
+        let exr = out.join(format!("render_{frame:04}.exr"));
+        let png = render_path(out, frame);
+        output::write_exr(&exr, &r.image, self.precision)?;
+        io::write_png(&png, &output::preview(&r.image, &Display::default()))?;
+        Ok(FrameRecord {
+            frame,
+            png,
+            exr,
+            stats: r.stats,
+        })
+    }
+}
+
+/// Path of the PNG render of `frame`.
+pub fn render_path(out: &Path, frame: usize) -> PathBuf {
+    out.join(format!("render_{frame:04}.png"))
+}
+
+/// One rendered frame, for the run's manifest.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameRecord {
+    /// Frame number.
+    pub frame: usize,
+    /// The sRGB preview.
+    pub png: PathBuf,
+    /// The linear EXR.
+    pub exr: PathBuf,
+    /// Render statistics.
+    pub stats: RenderStats,
+}
