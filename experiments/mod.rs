@@ -6,12 +6,18 @@
 //! `smokelab experiment --list`. Every experiment writes into `results/<id>/`
 //! by default: images, `data.csv` or `metrics.csv`, and `manifest.json`.
 
+#[path = "density_compare.rs"]
+mod density_compare;
+#[path = "06_5_density_modes.rs"]
+mod density_modes;
 #[path = "A_2_fournier_forand.rs"]
 mod fournier_forand;
 #[path = "A_1_henyey_greenstein.rs"]
 mod henyey_greenstein;
 #[path = "06_1_hot_cold_gridded.rs"]
 mod hot_cold_gridded;
+#[path = "06_3_hot_cold_gridless.rs"]
+mod hot_cold_gridless;
 
 use std::path::PathBuf;
 
@@ -58,6 +64,8 @@ pub struct Experiment {
 /// Every experiment, in the notes' order.
 pub const ALL: &[Experiment] = &[
     hot_cold_gridded::EXPERIMENT,
+    hot_cold_gridless::EXPERIMENT,
+    density_modes::EXPERIMENT,
     henyey_greenstein::EXPERIMENT,
     fournier_forand::EXPERIMENT,
 ];

@@ -91,6 +91,9 @@ pub struct RunSummary {
     pub source_rates: Vec<f64>,
     /// Per gas, `Σ S Δx³` on the velocity grid: what the gridded path injects per unit time.
     pub grid_source_rates: Vec<f64>,
+    /// Per gas, the injection per unit time of its own representation (the
+    /// `<g>_injected` column is this times the simulated time).
+    pub injection_rates: Vec<f64>,
     /// Per gas, the fine-sampled measures at the last step.
     pub final_measures: Vec<DensityMeasures>,
     /// Volume renders written, in frame order, with their statistics.
@@ -103,7 +106,10 @@ const SOURCE_REFINE: usize = 4;
 /// Column names of `metrics.csv` for a simulation's gases:
 /// - `step, time, max_u, cfl, div_rms, div_max`;
 /// - per gas `<g>_mass` (∫ρ at 2× the velocity grid), `<g>_injected` (the
-///   exact budget `steps · Δt · ∫S dV`), `<g>_grad` (mean |∇ρ| at 2×),
+///   exact budget of what the representation injected, `steps · Δt · rate`:
+///   a gridded density adds `S` at the cell centres, rate `Σ S Δx³`;
+///   gridless and SELMA evaluate `S` anywhere, rate `∫S dV` by 4×
+///   supersampling), `<g>_grad` (mean |∇ρ| at 2×),
 ///   `<g>_subgrid` (share of spectral energy beyond the velocity grid's
 ///   Nyquist index) — see [`crate::density::probe`];
 /// - `mirror_error` (two gases; densities at the cell centres) and
@@ -150,6 +156,18 @@ pub fn run<C: Serialize>(
     config: &C,
     seed: u64,
 ) -> Result<RunSummary> {
+    run_with(sim, opts, config, seed, |_, _| Ok(()))
+}
+
+/// [`run`], calling `at_saved(sim, frame)` after each saved frame is written
+/// (experiments capture their images there); its time counts as output.
+pub fn run_with<C: Serialize>(
+    sim: &mut Simulation,
+    opts: &RunOptions,
+    config: &C,
+    seed: u64,
+    mut at_saved: impl FnMut(&Simulation, usize) -> Result<()>,
+) -> Result<RunSummary> {
     let start = Instant::now();
     let cols = metric_columns(sim);
     let col_refs: Vec<&str> = cols.iter().map(String::as_str).collect();
@@ -180,6 +198,15 @@ pub fn run<C: Serialize>(
             .map_or_else(Default::default, |g| g.model.mode()),
         final_density_bytes: 0,
         grid_source_rates: sim.gases.iter().map(|g| g.source.total()).collect(),
+        injection_rates: sim
+            .gases
+            .iter()
+            .zip(&source_rates)
+            .map(|(g, &exact)| match g.model.mode() {
+                DensityMode::Gridded => g.source.total(),
+                DensityMode::Gridless | DensityMode::Selma => exact,
+            })
+            .collect(),
         source_rates,
         final_measures: vec![],
         renders: vec![],
@@ -209,7 +236,8 @@ pub fn run<C: Serialize>(
             });
         if opts.save.contains(frame, opts.frames) {
             timed(&mut times.output, || {
-                write_frame(sim, &opts.out, frame, opts.sample_res)
+                write_frame(sim, &opts.out, frame, opts.sample_res)?;
+                at_saved(sim, frame)
             })?;
             summary.saved_frames.push(frame);
             summary.previews.push(preview_path(&opts.out, frame));
@@ -227,7 +255,7 @@ pub fn run<C: Serialize>(
             div.rms as f64,
             div.max as f64,
         ];
-        for (n, rate) in summary.source_rates.iter().enumerate() {
+        for (n, rate) in summary.injection_rates.iter().enumerate() {
             let m = measures.as_ref().map(|m| m[n]);
             row.extend([
                 m.map_or(f64::NAN, |m| m.mass),
