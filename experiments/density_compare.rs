@@ -57,6 +57,19 @@ impl ModeRun {
         }
     }
 
+    /// Gridless with injection spheres of smooth edge `edge` instead of the
+    /// notes' solid mask: the symmetry control.
+    pub fn gridless_smooth(base: &HotColdConfig, edge: f32) -> Self {
+        Self {
+            label: "gridless-smooth".into(),
+            config: HotColdConfig {
+                density: DensityMode::Gridless,
+                source_edge: edge,
+                ..base.clone()
+            },
+        }
+    }
+
     /// SELMA with its map grid `factor` times finer than the velocity (SELMA^fine).
     pub fn selma_fine(base: &HotColdConfig, factor: usize) -> Self {
         Self {
@@ -251,6 +264,7 @@ fn color(label: &str) -> plotters::style::RGBColor {
         "gridded" => PALETTE[0],
         "gridless" => PALETTE[3],
         "selma" => PALETTE[2],
+        "gridless-smooth" => PALETTE[1],
         _ => PALETTE[4],
     }
 }

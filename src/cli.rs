@@ -71,6 +71,9 @@ pub struct RunArgs {
     /// Write volumes every K frames (0: metrics only).
     #[arg(long, allow_negative_numbers = true)]
     pub save_every: Option<usize>,
+    /// Width of a smooth edge of the injection spheres (0: solid, as the notes).
+    #[arg(long, allow_negative_numbers = true)]
+    pub source_edge: Option<f32>,
     /// How the densities are held: gridded (eq 6.4), gridless (eq 7.4) or selma (eq 8.8).
     #[arg(long, value_enum)]
     pub density: Option<DensityMode>,
@@ -128,6 +131,7 @@ impl Default for RunArgs {
             radius: None,
             backtrace: None,
             save_every: None,
+            source_edge: None,
             density: None,
             map_res: None,
             selma_remap: None,
@@ -165,6 +169,7 @@ impl RunArgs {
             radius,
             backtrace,
             save_every,
+            source_edge,
             density,
             selma_remap,
             metrics_every,

@@ -38,6 +38,7 @@ use crate::domain::Domain;
 use crate::grid::VectorGrid;
 
 /// Planned transforms and scratch for projecting velocity grids on one domain.
+#[derive(Clone)]
 pub struct Projection {
     domain: Domain,
     /// Number of complex bins along x, `nx/2 + 1`.

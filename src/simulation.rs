@@ -31,6 +31,7 @@ use crate::projection::Projection;
 use crate::timing::{timed, StageTimes};
 
 /// One buoyant gas: its density, where it is injected, and how it lifts.
+#[derive(Clone)]
 pub struct Gas {
     /// Name used for output files (`<name>_NNNN.npy`).
     pub name: String,
@@ -95,6 +96,11 @@ pub struct StepParams {
 }
 
 /// Velocity, gases and the planned projection for one run.
+///
+/// A clone copies every grid but shares a gridless density's stored
+/// velocity grids (immutable, [`Arc`]): the clone and the original step on
+/// independently (benchmarks time one step of a warmed clone).
+#[derive(Clone)]
 pub struct Simulation {
     /// Parameters of every step.
     pub params: StepParams,

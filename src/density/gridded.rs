@@ -21,6 +21,7 @@ use crate::field::Scalar;
 use crate::grid::ScalarGrid;
 
 /// A density grid and its advection scratch.
+#[derive(Clone)]
 pub struct Gridded {
     density: ScalarGrid,
     scratch: ScalarGrid,

@@ -144,6 +144,7 @@ impl ScalarField for GridlessField {
 }
 
 /// A gridless density and its cache at the velocity grid's cell centres.
+#[derive(Clone)]
 pub struct Gridless {
     field: GridlessField,
     centres: ScalarGrid,

@@ -217,6 +217,7 @@ pub fn total_bytes(buffers: impl IntoIterator<Item = Buffer>) -> usize {
 }
 
 /// The density of one gas, held one of three ways (see the module docs).
+#[derive(Clone)]
 pub enum DensityModel {
     /// A grid on the velocity grid's cells (eq 6.4).
     Gridded(Gridded),

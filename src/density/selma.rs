@@ -157,6 +157,7 @@ impl ScalarField for SelmaField {
 
 /// A SELMA density: the map, the tracked reference lattice, the source and
 /// the cache at the velocity grid's cell centres.
+#[derive(Clone)]
 pub struct Selma {
     field: SelmaField,
     disp_scratch: VectorGrid,
