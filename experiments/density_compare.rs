@@ -270,8 +270,9 @@ fn color(label: &str) -> plotters::style::RGBColor {
 }
 
 /// Plot the metrics of `results` over time: `<out>/metrics_<name>.{png,svg}`
-/// for mass retained, symmetry, mean gradient, sub-grid energy, time per
-/// step and memory, plus `metrics.png`, the six side by side. Reads the
+/// for mass retained, peak density, symmetry, mean gradient, sub-grid
+/// energy, time per step and memory, plus `metrics.png`, all seven on one
+/// sheet. Reads the
 /// runs' `metrics.csv`, so the plots can be redrawn without simulating.
 pub(super) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &str) -> Result<()> {
     let tables: Vec<(String, Table)> = results
@@ -308,6 +309,21 @@ pub(super) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
             let (m, i) = (t.col("hot_mass")?, t.col("hot_injected")?);
             Ok(vec![
                 Series::line("", t.series(|r| r[m] / r[i])?).styled(Style::LineMarkers)
+            ])
+        },
+    )?;
+    add(
+        "peak",
+        Plot::new(
+            format!("{title}: peak density"),
+            time_label,
+            "max ρ_hot (2× sampling)",
+        )
+        .legend(LegendPosition::UpperLeft),
+        &|t| {
+            let m = t.col("hot_max")?;
+            Ok(vec![
+                Series::line("", t.series(|r| r[m])?).styled(Style::LineMarkers)
             ])
         },
     )?;
@@ -403,7 +419,7 @@ pub(super) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
         let [png, _] = p.write(&out.join(format!("metrics_{name}")))?;
         pngs.push(image::open(&png)?.to_rgb8());
     }
-    let rows: Vec<Vec<RgbImage>> = pngs.chunks(3).map(|c| c.to_vec()).collect();
+    let rows: Vec<Vec<RgbImage>> = pngs.chunks(4).map(|c| c.to_vec()).collect();
     io::write_png(&out.join("metrics.png"), &grid(&rows, 0))
 }
 
@@ -414,6 +430,8 @@ pub(super) struct SummaryRow {
     pub mode: String,
     /// Hot mass at the last frame, 2× sampling.
     pub hot_mass: f64,
+    /// Peak hot density at the last frame, 2× sampling.
+    pub hot_max: f64,
     /// Hot mass at the last frame, 4× sampling.
     pub hot_mass_4x: f64,
     /// Exact injected hot mass.
@@ -457,6 +475,7 @@ pub(super) fn summarise(out: &Path, results: &[ModeResult]) -> Result<Vec<Summar
         rows.push(SummaryRow {
             mode: r.label.clone(),
             hot_mass: last[c("hot_mass")?],
+            hot_max: last[c("hot_max")?],
             hot_mass_4x: r.hot_mass_4x,
             hot_injected: last[c("hot_injected")?],
             max_mirror_error: max(c("mirror_error")?),
@@ -472,6 +491,7 @@ pub(super) fn summarise(out: &Path, results: &[ModeResult]) -> Result<Vec<Summar
     let cols = [
         "mode",
         "hot_mass",
+        "hot_max",
         "hot_mass_4x",
         "hot_injected",
         "max_mirror_error",
@@ -486,9 +506,10 @@ pub(super) fn summarise(out: &Path, results: &[ModeResult]) -> Result<Vec<Summar
     let mut text = cols.join(",") + "\n";
     for r in &rows {
         text.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.mode,
             r.hot_mass,
+            r.hot_max,
             r.hot_mass_4x,
             r.hot_injected,
             r.max_mirror_error,

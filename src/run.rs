@@ -109,7 +109,7 @@ const SOURCE_REFINE: usize = 4;
 ///   exact budget of what the representation injected, `steps · Δt · rate`:
 ///   a gridded density adds `S` at the cell centres, rate `Σ S Δx³`;
 ///   gridless and SELMA evaluate `S` anywhere, rate `∫S dV` by 4×
-///   supersampling), `<g>_grad` (mean |∇ρ| at 2×),
+///   supersampling), `<g>_max` (peak ρ at 2×), `<g>_grad` (mean |∇ρ| at 2×),
 ///   `<g>_subgrid` (share of spectral energy beyond the velocity grid's
 ///   Nyquist index) — see [`crate::density::probe`];
 /// - `mirror_error` (two gases; densities at the cell centres) and
@@ -123,7 +123,7 @@ pub fn metric_columns(sim: &Simulation) -> Vec<String> {
         .map(String::from)
         .to_vec();
     for g in &sim.gases {
-        for m in ["mass", "injected", "grad", "subgrid"] {
+        for m in ["mass", "injected", "max", "grad", "subgrid"] {
             cols.push(format!("{}_{m}", g.name));
         }
     }
@@ -260,6 +260,7 @@ pub fn run_with<C: Serialize>(
             row.extend([
                 m.map_or(f64::NAN, |m| m.mass),
                 frame as f64 * sim.params.dt as f64 * rate,
+                m.map_or(f64::NAN, |m| m.max),
                 m.map_or(f64::NAN, |m| m.mean_gradient),
                 m.map_or(f64::NAN, |m| m.subgrid_fraction),
             ]);
