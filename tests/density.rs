@@ -512,3 +512,49 @@ fn a_gridless_run_too_big_for_memory_is_refused_with_its_estimate() {
         assert!(!dir.path().join("out").exists());
     }
 }
+
+#[test]
+fn density_experiments_run_at_smoke_size_and_write_their_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    for (id, figures) in [
+        (
+            "06-3",
+            &["sequence.png", "frame.png", "frame_render.png"][..],
+        ),
+        (
+            "06-5",
+            &["side_by_side.png", "side_by_side_render.png", "final.png"][..],
+        ),
+    ] {
+        let out = dir.path().join(id);
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_smokelab"))
+            .args(["experiment", id, "--smoke", "--quiet", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{id}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let common = [
+            "metrics.png",
+            "metrics_mass.svg",
+            "metrics_symmetry.png",
+            "metrics_memory.svg",
+            "summary.csv",
+            "manifest.json",
+            "gridless/metrics.csv",
+        ];
+        for f in figures.iter().chain(&common) {
+            assert!(out.join(f).is_file(), "{id}: no {f}");
+        }
+        let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+        for mode in ["gridded", "gridless", "selma"] {
+            assert!(
+                summary.lines().any(|l| l.starts_with(mode)),
+                "{id}: {summary}"
+            );
+        }
+    }
+}
