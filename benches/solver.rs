@@ -42,7 +42,7 @@ fn benches(c: &mut Criterion) {
         });
         let mut rho = ScalarGrid::zeros(*sim.domain());
         g.bench_function(BenchmarkId::new("sl_interpolate_scalar", res), |b| {
-            b.iter(|| interpolate_scalar(&sim.gases[0].density, &dep, &mut rho))
+            b.iter(|| interpolate_scalar(sim.gases[0].density(), &dep, &mut rho))
         });
         let mut u = sim.velocity.clone();
         g.bench_function(BenchmarkId::new("sl_interpolate_vector", res), |b| {
@@ -51,7 +51,7 @@ fn benches(c: &mut Criterion) {
         let mut rho2 = rho.clone();
         g.bench_function(BenchmarkId::new("sl_fused_two_gases", res), |b| {
             b.iter(|| {
-                let srcs = [&sim.gases[0].density, &sim.gases[1].density];
+                let srcs = [sim.gases[0].density(), sim.gases[1].density()];
                 advect_fused(
                     &sim.velocity,
                     0.05,

@@ -60,6 +60,8 @@ fn run(ctx: &Context) -> Result<()> {
         frames: config.frames,
         save: SaveFrames::List(frames),
         progress: ctx.progress,
+        metrics_every: config.metrics_every,
+        sample_res: config.sample_res,
         render: Some(render),
     };
     let summary = run::run(&mut sim, &opts, &config, config.seed)?;

@@ -136,13 +136,15 @@ fn run(ctx: &Context) -> Result<()> {
             frames: config.frames,
             save: SaveFrames::List(saved.clone()),
             progress: ctx.progress,
+            metrics_every: 1,
+            sample_res: None,
             render: None,
         };
         let summary = run::run(&mut sim, &opts, config, config.seed)?;
         let m = column_stats(&out.join("metrics.csv"))?;
         let gas = &sim.gases[0];
         let injected = gas.injected_per_step(config.dt) * frames as f64;
-        let reference = reference.get_or_insert_with(|| gas.density.clone());
+        let reference = reference.get_or_insert_with(|| gas.density().clone());
         data.push_str(&format!(
             "{},{res},{frames},{},{:.6e},{:.6e},{:.6e},{:.6},{:.6},{:.4},{:.1},{:.2}\n",
             case.name,
@@ -152,7 +154,7 @@ fn run(ctx: &Context) -> Result<()> {
             m.mean("div_fluid_rms")?,
             m.last("density_mass")?,
             injected,
-            relative_difference(&gas.density, reference),
+            relative_difference(gas.density(), reference),
             m.mean("face_cg_iterations")?,
             summary.wall_seconds,
         ));

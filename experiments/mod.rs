@@ -10,6 +10,10 @@
 mod artist_spline;
 #[path = "C_1_convergence.rs"]
 mod convergence;
+#[path = "density_compare.rs"]
+mod density_compare;
+#[path = "06_5_density_modes.rs"]
+mod density_modes;
 #[path = "A_2_fournier_forand.rs"]
 mod fournier_forand;
 #[path = "07_2_gridless_noise_step.rs"]
@@ -18,6 +22,8 @@ mod gridless_noise_step;
 mod henyey_greenstein;
 #[path = "06_1_hot_cold_gridded.rs"]
 mod hot_cold_gridded;
+#[path = "06_3_hot_cold_gridless.rs"]
+mod hot_cold_gridless;
 #[path = "N_3_simulation_noise_2d.rs"]
 mod simulation_noise_2d;
 #[path = "06_6_slab_box.rs"]
@@ -71,6 +77,8 @@ pub struct Experiment {
 pub const ALL: &[Experiment] = &[
     hot_cold_gridded::EXPERIMENT,
     slab_box::EXPERIMENT,
+    hot_cold_gridless::EXPERIMENT,
+    density_modes::EXPERIMENT,
     gridless_noise_step::EXPERIMENT,
     henyey_greenstein::EXPERIMENT,
     fournier_forand::EXPERIMENT,

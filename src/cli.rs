@@ -11,6 +11,7 @@ use clap::{Args, Parser, Subcommand};
 
 use crate::advection::{Backtrace, Limiter, Scheme};
 use crate::boundary::BoundaryRule;
+use crate::density::DensityMode;
 use crate::error::InputError;
 use crate::experiments;
 use crate::io;
@@ -92,6 +93,27 @@ pub struct RunArgs {
     /// Write volumes every K frames (0: metrics only).
     #[arg(long, allow_negative_numbers = true)]
     pub save_every: Option<usize>,
+    /// Width of a smooth edge of the injection spheres (0: solid, as the notes).
+    #[arg(long, allow_negative_numbers = true)]
+    pub source_edge: Option<f32>,
+    /// How the densities are held: gridded (eq 6.4), gridless (eq 7.4) or selma (eq 8.8).
+    #[arg(long, value_enum)]
+    pub density: Option<DensityMode>,
+    /// SELMA map grid cells along the longest axis (default: --res; finer is SELMA^fine).
+    #[arg(long, allow_negative_numbers = true)]
+    pub map_res: Option<usize>,
+    /// SELMA: re-anchor the map when its lattice has deformed by more than this many map cells (0: never).
+    #[arg(long, allow_negative_numbers = true)]
+    pub selma_remap: Option<f32>,
+    /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
+    #[arg(long, allow_negative_numbers = true)]
+    pub sample_res: Option<usize>,
+    /// Fine-sampled density metrics every K steps (costly for gridless; default 1).
+    #[arg(long, allow_negative_numbers = true)]
+    pub metrics_every: Option<usize>,
+    /// Run even if the memory estimate exceeds the available memory.
+    #[arg(long)]
+    pub force: bool,
     /// Random seed.
     #[arg(long)]
     pub seed: Option<u64>,
@@ -137,6 +159,13 @@ impl Default for RunArgs {
             alpha: None,
             boundary_passes: None,
             save_every: None,
+            source_edge: None,
+            density: None,
+            map_res: None,
+            selma_remap: None,
+            sample_res: None,
+            metrics_every: None,
+            force: false,
             seed: None,
             out: None,
             threads: None,
@@ -159,11 +188,32 @@ impl RunArgs {
         macro_rules! take {
             ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
         }
-        take!(res, frames, dt, nu, gravity, radius, backtrace, save_every, seed);
+        take!(
+            res,
+            frames,
+            dt,
+            nu,
+            gravity,
+            radius,
+            backtrace,
+            save_every,
+            source_edge,
+            density,
+            selma_remap,
+            metrics_every,
+            seed
+        );
         take!(advection, limiter);
         if self.no_substeps {
             c.substeps = false;
         }
+        if self.map_res.is_some() {
+            c.map_res = self.map_res;
+        }
+        if self.sample_res.is_some() {
+            c.sample_res = self.sample_res;
+        }
+        c.force |= self.force;
         for (flag, given) in [
             ("--boundary", self.boundary.is_some()),
             ("--alpha", self.alpha.is_some()),
@@ -192,6 +242,27 @@ impl RunArgs {
         take!(advection, limiter, boundary, alpha, boundary_passes);
         if self.no_substeps {
             c.substeps = false;
+        }
+        for (flag, given) in [
+            (
+                "--density",
+                self.density.is_some_and(|d| d != DensityMode::Gridded),
+            ),
+            ("--map-res", self.map_res.is_some()),
+            ("--selma-remap", self.selma_remap.is_some()),
+            ("--sample-res", self.sample_res.is_some()),
+            ("--source-edge", self.source_edge.is_some()),
+        ] {
+            if given {
+                return Err(InputError::new(format!(
+                    "{flag} applies to hot-cold only; slab-box holds its gas on the grid (--density gridded)"
+                )));
+            }
+        }
+        if self.metrics_every == Some(0) {
+            return Err(InputError::new(
+                "--metrics-every 0: give a step count ≥ 1".to_string(),
+            ));
         }
         c.validate()?;
         Ok(c)
@@ -269,11 +340,14 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
                 frames: config.frames,
                 save: SaveFrames::Every(config.save_every),
                 progress: !args.quiet,
+                metrics_every: config.metrics_every,
+                sample_res: config.sample_res,
                 render,
             };
             let summary = run::run(&mut sim, &opts, &config, config.seed)?;
             println!(
-                "hot-cold: {} steps at {}³ in {:.1} s; wrote {}",
+                "hot-cold ({} density): {} steps at {}³ in {:.1} s; wrote {}",
+                config.density,
                 config.frames,
                 config.res,
                 summary.wall_seconds,
@@ -300,6 +374,8 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
                 frames: config.frames,
                 save: SaveFrames::Every(config.save_every),
                 progress: !args.quiet,
+                metrics_every: args.metrics_every.unwrap_or(1),
+                sample_res: None,
                 render: None,
             };
             let summary = run::run(&mut sim, &opts, &config, config.seed)?;

@@ -15,6 +15,7 @@
 //! - [`metrics`] — divergence, mirror symmetry;
 //! - [`boundary`] — level-set obstacles, reflecting and sticky rules (eqs 6.6–6.7);
 //! - [`convergence`] — observed order of accuracy for convergence tests;
+//! - [`density`] — gridded, gridless and SELMA densities (§6.2, ch. 7–8);
 //! - [`noise`] — divergence-free noise velocities (simulation, curl, bitangent, spectral);
 //! - [`timing`] — stage timers, peak memory;
 //! - [`plot`] — line plots (PNG + SVG) for the experiments;
@@ -41,6 +42,7 @@ pub mod advection;
 pub mod boundary;
 pub mod cli;
 pub mod convergence;
+pub mod density;
 pub mod domain;
 pub mod error;
 #[path = "../experiments/mod.rs"]

@@ -53,6 +53,7 @@ pub enum Operator {
 }
 
 /// Planned transforms and scratch for projecting velocity grids on one domain.
+#[derive(Clone)]
 pub struct Projection {
     domain: Domain,
     /// Number of complex bins along x, `nx/2 + 1`.

@@ -9,19 +9,25 @@
 //! ```
 //!
 //! [`Simulation::step`] is those lines in four verbs: [`Simulation::advect`]
-//! (every `advect(…, velocity, dt)` above: semi-Lagrangian in one sweep that
-//! traces each departure point once, or QUICK through face velocities frozen
-//! once), [`Simulation::inject_sources`], [`Simulation::add_buoyancy`] and
-//! [`Simulation::project`], followed by [`Simulation::apply_boundary`] when
-//! there are obstacles (§6.3, eqs 6.6–6.7). The densities are advected by the
-//! velocity of the start of the step, as in the script. Every buffer is
-//! allocated once in [`Simulation::new`].
+//! (every `advect(…, velocity, dt)` and `inject` above, each gas in its own
+//! representation — [`crate::density`]), [`Simulation::evaluate_densities`]
+//! (gridless and SELMA densities sampled at the cell centres for the
+//! force), [`Simulation::add_buoyancy`] and [`Simulation::project`],
+//! followed by [`Simulation::apply_boundary`] when there are obstacles
+//! (§6.3, eqs 6.6–6.7). Gridded densities and the velocity move together
+//! through the chosen [`Advector`]: semi-Lagrangian in one sweep that traces
+//! each departure point once, or QUICK through face velocities frozen once.
+//! The densities are advected by the velocity of the start of the step, as
+//! in the script. Every buffer is allocated once in [`Simulation::new`].
+
+use std::sync::Arc;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::advection::{AdvectionOptions, Advector, Backtrace, CflError};
 use crate::boundary::Boundary;
+use crate::density::{total_bytes, DensityModel, DensityOptions, StepInput};
 use crate::domain::Domain;
 use crate::field::Scalar;
 use crate::grid::{ScalarGrid, VectorGrid};
@@ -29,29 +35,49 @@ use crate::projection::Projection;
 use crate::timing::{timed, StageTimes};
 
 /// One buoyant gas: its density, where it is injected, and how it lifts.
+#[derive(Clone)]
 pub struct Gas {
     /// Name used for output files (`<name>_NNNN.npy`).
     pub name: String,
-    /// Density on the velocity grid.
-    pub density: ScalarGrid,
+    /// How the density is held (gridded, gridless or SELMA).
+    pub model: DensityModel,
     /// Injection rate S(x) sampled on the grid (the notes' `inject` without Δt).
     pub source: ScalarGrid,
+    /// Injection rate S(x) as a field, for the modes that query it anywhere.
+    pub source_field: Scalar,
     /// Buoyancy coefficient: the force is `−g⃗ · lift · ρ`, so +1 rises (hot) and −1 sinks (cold).
     pub lift: f32,
-    /// Scratch for the advected density.
-    scratch: ScalarGrid,
 }
 
 impl Gas {
-    /// A gas starting empty, injected at rate `source(x)` per unit time.
+    /// A gridded gas starting empty, injected at rate `source(x)` per unit time.
     pub fn new(name: impl Into<String>, domain: Domain, source: &Scalar, lift: f32) -> Self {
+        Self::with_density(name, domain, source, lift, &DensityOptions::default())
+    }
+
+    /// A gas starting empty, held as `density` says.
+    ///
+    /// # Panics
+    /// If `density` fails [`DensityOptions::validate`] on `domain`.
+    pub fn with_density(
+        name: impl Into<String>,
+        domain: Domain,
+        source: &Scalar,
+        lift: f32,
+        density: &DensityOptions,
+    ) -> Self {
         Self {
             name: name.into(),
-            density: ScalarGrid::zeros(domain),
+            model: DensityModel::new(density, domain, None, Some(source.clone())),
             source: ScalarGrid::from_field(domain, &**source),
+            source_field: source.clone(),
             lift,
-            scratch: ScalarGrid::zeros(domain),
         }
+    }
+
+    /// The density at the velocity grid's cell centres after the last step.
+    pub fn density(&self) -> &ScalarGrid {
+        self.model.density()
     }
 
     /// Mass injected per step, `Σ S Δt Δx³`, as sampled on the grid.
@@ -74,6 +100,11 @@ pub struct StepParams {
 }
 
 /// Velocity, gases and the planned projection for one run.
+///
+/// A clone copies every grid but shares a gridless density's stored
+/// velocity grids (immutable, [`Arc`]): the clone and the original step on
+/// independently (benchmarks time one step of a warmed clone).
+#[derive(Clone)]
 pub struct Simulation {
     /// Parameters of every step.
     pub params: StepParams,
@@ -156,7 +187,7 @@ impl Simulation {
     pub fn try_step(&mut self) -> Result<(), CflError> {
         let mut times = StageTimes::default();
         timed(&mut times.advect, || self.advect())?;
-        timed(&mut times.force, || self.inject_sources());
+        timed(&mut times.density, || self.evaluate_densities());
         timed(&mut times.force, || self.add_buoyancy());
         timed(&mut times.project, || self.project());
         timed(&mut times.project, || self.apply_boundary());
@@ -175,19 +206,28 @@ impl Simulation {
         }
     }
 
-    /// Eqs 6.4–6.5, transport: every gas and the velocity itself moved by the
-    /// velocity of the start of the step (semi-Lagrangian: `ρ ← ρ(x − uΔt)`,
-    /// `u ← u(x − uΔt)` sharing one backtrace per cell; QUICK: finite volumes
-    /// through the same frozen face velocities).
+    /// Eqs 6.4–6.5, transport and injection: every gas and the velocity
+    /// itself moved by the velocity of the start of the step, and the sources
+    /// injected for Δt. Gridded densities and the velocity go through the
+    /// [`Advector`] together (semi-Lagrangian: `ρ ← ρ(x − uΔt)`, `u ← u(x − uΔt)`
+    /// sharing one backtrace per cell; QUICK: finite volumes through the same
+    /// frozen face velocities); gridless densities keep the velocity (eq 7.4)
+    /// and SELMA advects its map (eq 8.8), both with the semi-Lagrangian
+    /// backtrace whatever the scheme.
     ///
     /// # Errors
     /// As [`Advector::advect`]; nothing is changed then.
     pub fn advect(&mut self) -> Result<(), CflError> {
         let p = self.params;
+        let snapshot = self
+            .gases
+            .iter()
+            .any(|g| g.model.keeps_velocity())
+            .then(|| Arc::new(self.velocity.clone()));
         let (srcs, mut dsts): (Vec<&ScalarGrid>, Vec<&mut ScalarGrid>) = self
             .gases
             .iter_mut()
-            .map(|g| (&g.density, &mut g.scratch))
+            .filter_map(|g| g.model.advection_pair())
             .unzip();
         self.advector.advect(
             &self.velocity,
@@ -196,23 +236,31 @@ impl Simulation {
             &mut dsts,
             &mut self.velocity_scratch,
         )?;
-        std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
+        let input = StepInput {
+            velocity: &self.velocity,
+            snapshot: snapshot.as_ref(),
+            dt: p.dt,
+            backtrace: p.backtrace,
+        };
         for gas in &mut self.gases {
-            std::mem::swap(&mut gas.density, &mut gas.scratch);
+            gas.model.step(&input, &gas.source);
         }
+        std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
         Ok(())
     }
 
-    /// Eq 6.4, source: `ρ += S Δt` (the notes' `inject(point, dt)`).
-    pub fn inject_sources(&mut self) {
-        let dt = self.params.dt;
+    /// Evaluate gridless and SELMA densities at the cell centres, the input
+    /// of the buoyancy force (gridded densities already live there).
+    pub fn evaluate_densities(&mut self) {
         for gas in &mut self.gases {
-            gas.density
-                .as_slice_mut()
-                .par_iter_mut()
-                .zip(gas.source.as_slice().par_iter())
-                .for_each(|(rho, s)| *rho += s * dt);
+            gas.model.evaluate_centres();
         }
+    }
+
+    /// Bytes held by the density representations of all gases, each shared
+    /// buffer (a gridless velocity grid) counted once.
+    pub fn density_bytes(&self) -> usize {
+        total_bytes(self.gases.iter().flat_map(|g| g.model.buffers()))
     }
 
     /// Eq 6.5, force: `u += −Δt g⃗ Σ lift·ρ` — with hot lift +1 and cold −1
@@ -230,7 +278,7 @@ impl Simulation {
                 for (n, un) in u.iter_mut().enumerate() {
                     let mut lift = 0.0;
                     for g in gases {
-                        lift += g.lift * g.density.as_slice()[base + n];
+                        lift += g.lift * g.density().as_slice()[base + n];
                     }
                     *un -= p.dt * lift * p.gravity;
                 }

@@ -9,18 +9,22 @@ use serde::Serialize;
 pub struct StageTimes {
     /// Advection of densities and velocity.
     pub advect: f64,
+    /// Evaluating gridless/SELMA densities at the cell centres for buoyancy.
+    pub density: f64,
     /// Sources and buoyancy.
     pub force: f64,
     /// FFT projection (and viscosity).
     pub project: f64,
     /// Writing volumes, previews and metrics.
     pub output: f64,
+    /// Fine-sampled density metrics (mass, gradient, spectrum).
+    pub metrics: f64,
 }
 
 impl StageTimes {
     /// Sum over stages.
     pub fn total(&self) -> f64 {
-        self.advect + self.force + self.project + self.output
+        self.advect + self.density + self.force + self.project + self.output + self.metrics
     }
 }
 

@@ -70,13 +70,13 @@ fn hot_cold_is_mirror_symmetric_and_buoyant() {
     // Start with some gas in place so the centres of mass are defined.
     sim.step();
     let (hot0, cold0) = (
-        sim.gases[0].density.center_of_mass(),
-        sim.gases[1].density.center_of_mass(),
+        sim.gases[0].density().center_of_mass(),
+        sim.gases[1].density().center_of_mass(),
     );
     for _ in 1..config.frames {
         sim.step();
     }
-    let (hot, cold) = (&sim.gases[0].density, &sim.gases[1].density);
+    let (hot, cold) = (sim.gases[0].density(), sim.gases[1].density());
     assert!(sim.velocity.is_finite());
     assert!(hot
         .as_slice()

@@ -326,7 +326,7 @@ fn fluid_at_rest_next_to_obstacles_stays_at_rest() {
             }
             assert_eq!(sim.velocity.max_norm(), 0.0, "{advection:?} {boundary:?}");
             let injected = sim.gases[0].injected_per_step(config.dt) * 5.0;
-            let mass = sim.gases[0].density.total();
+            let mass = sim.gases[0].density().total();
             assert!(
                 (mass - injected).abs() < 1e-5 * injected,
                 "{mass} vs {injected}"
@@ -357,13 +357,13 @@ fn slab_box_obstacles_hold() {
         for _ in 0..config.frames {
             sim.try_step().unwrap();
             let b = sim.boundary.as_ref().unwrap();
-            let leak = b.leak(&sim.velocity, &[&sim.gases[0].density]);
+            let leak = b.leak(&sim.velocity, &[sim.gases[0].density()]);
             assert!(
                 sim.velocity.is_finite(),
                 "{advection:?}: velocity not finite"
             );
             assert!(sim.gases[0]
-                .density
+                .density()
                 .as_slice()
                 .iter()
                 .all(|v| v.is_finite()));
@@ -372,7 +372,7 @@ fn slab_box_obstacles_hold() {
                 .1
                 .max(leak.rim_inward.rms / leak.u_rms.max(f32::MIN_POSITIVE));
         }
-        let mass = sim.gases[0].density.total();
+        let mass = sim.gases[0].density().total();
         let injected = sim.gases[0].injected_per_step(config.dt) * config.frames as f64;
         println!(
             "{advection:?} {boundary:?}: deep obstacle mass fraction ≤ {:.2e}, rim inward ≤ {:.2e} rms|u|, \
@@ -417,12 +417,12 @@ fn hot_cold_quick_is_mirror_symmetric() {
     let mut sim = config.build().unwrap();
     let hot0 = {
         sim.step();
-        sim.gases[0].density.center_of_mass()
+        sim.gases[0].density().center_of_mass()
     };
     for _ in 1..config.frames {
         sim.step();
     }
-    let (hot, cold) = (&sim.gases[0].density, &sim.gases[1].density);
+    let (hot, cold) = (sim.gases[0].density(), sim.gases[1].density());
     let err = smokelab::metrics::mirror_error(hot, cold);
     println!(
         "QUICK mirror error after {} steps: {err:.3e}",
@@ -474,7 +474,7 @@ fn boundary_projection_interplay_table() {
                     continue;
                 }
                 let b = sim.boundary.as_ref().unwrap();
-                let leak = b.leak(&sim.velocity, &[&sim.gases[0].density]);
+                let leak = b.leak(&sim.velocity, &[sim.gases[0].density()]);
                 let mut v = sim.velocity.clone();
                 proj.project(&mut v, 0.0, config.dt);
                 div += leak.div_fluid.rms as f64;

@@ -39,6 +39,7 @@ const PZ: u8 = 16;
 const MZ: u8 = 32;
 
 /// Conjugate-gradient state of the open-face Poisson problem.
+#[derive(Clone)]
 pub(crate) struct FacePressure {
     /// Open faces of every cell, as bits `PX … MZ`.
     mask: Vec<u8>,

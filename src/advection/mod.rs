@@ -22,7 +22,8 @@ use crate::domain::Domain;
 use crate::grid::{ScalarGrid, VectorGrid};
 pub use quick::{CflError, Limiter, Quick, QuickOptions};
 pub use semi_lagrangian::{
-    advect_fused, advect_scalar, advect_vector, interpolate_scalar, interpolate_vector, Departures,
+    advect_fused, advect_scalar, advect_vector, departure_point, interpolate_scalar,
+    interpolate_vector, Departures,
 };
 
 /// How the departure point `x − ∫u dt` of a semi-Lagrangian step is traced.
@@ -83,6 +84,7 @@ impl Default for AdvectionOptions {
 /// The chosen scheme and its per-step state: [`Advector::advect`] moves any
 /// number of densities and the velocity itself through one step, all by the
 /// velocity of the start of the step.
+#[derive(Clone)]
 pub enum Advector {
     /// Semi-Lagrangian: one fused sweep tracing each departure point once.
     SemiLagrangian {

@@ -197,6 +197,7 @@ enum Blend<'a> {
 }
 
 /// Per-step scratch of the finite-volume passes.
+#[derive(Clone)]
 struct Passes {
     /// QUICK face values on the upper faces `i+½, j+½, k+½` of every cell.
     face: [Vec<f32>; 3],
@@ -207,6 +208,7 @@ struct Passes {
 
 /// A QUICK advector for one domain: the step's face Courant numbers, its
 /// sub-step count and all scratch.
+#[derive(Clone)]
 pub struct Quick {
     domain: Domain,
     lattice: Lattice,

@@ -86,6 +86,19 @@ impl Departures {
     }
 }
 
+/// Departure point, in grid coordinates, of an arbitrary point `g` (grid
+/// coordinates) traced back through `vel` over `dt_cells = Δt/Δx` cells.
+///
+/// The same arithmetic as [`Departures::trace`]: at a cell centre the result
+/// is bit-identical (trilinear interpolation at an integer point returns the
+/// sample itself). Gridless and SELMA densities use it so that their
+/// characteristics are exactly those of the gridded path.
+#[inline]
+pub fn departure_point(vel: &VectorGrid, g: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
+    let vel = VelocitySampler::new(vel);
+    departure(vel, g, vel.at(g), dt_cells, backtrace)
+}
+
 /// Trilinear velocity lookups with the grid's slice and layout hoisted out of
 /// the per-cell loop.
 #[derive(Clone, Copy)]

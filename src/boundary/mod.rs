@@ -122,6 +122,7 @@ impl BoundaryOptions {
 }
 
 /// Obstacles sampled on a domain, with the rule that keeps fluid out of them.
+#[derive(Clone)]
 pub struct Boundary {
     options: BoundaryOptions,
     /// `O` at the cell centres.

@@ -90,6 +90,26 @@ impl ScalarField for Mask {
     }
 }
 
+/// A ball with a smooth edge: 1 inside `radius − edge/2`, 0 outside
+/// `radius + edge/2`, a smoothstep between (so about the volume of the solid
+/// ball of `radius`). A continuous alternative to `mask(sphere)`.
+pub struct SmoothBall {
+    /// Centre.
+    pub center: Vec3,
+    /// Radius of the middle of the edge.
+    pub radius: f32,
+    /// Width of the edge (> 0).
+    pub edge: f32,
+}
+
+impl ScalarField for SmoothBall {
+    fn eval(&self, p: Vec3) -> f32 {
+        let t = ((self.radius + 0.5 * self.edge - (p - self.center).length()) / self.edge)
+            .clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    }
+}
+
 /// `a + b`.
 pub struct Sum(pub Scalar, pub Scalar);
 
@@ -242,6 +262,15 @@ pub fn mask(f: Scalar) -> Scalar {
     Arc::new(Mask(f))
 }
 
+/// A ball of `radius` with a smoothstep edge of width `edge` (> 0).
+pub fn smooth_ball(center: Vec3, radius: f32, edge: f32) -> Scalar {
+    Arc::new(SmoothBall {
+        center,
+        radius,
+        edge,
+    })
+}
+
 /// `a + b`.
 pub fn sum(a: Scalar, b: Scalar) -> Scalar {
     Arc::new(Sum(a, b))
@@ -326,6 +355,14 @@ mod tests {
                 assert_eq!(*o, f.eval(*p));
             }
         }
+    }
+
+    #[test]
+    fn smooth_ball_spans_its_edge() {
+        let b = smooth_ball(Vec3::ZERO, 1.0, 0.4);
+        assert_eq!(b.eval(Vec3::new(0.79, 0.0, 0.0)), 1.0);
+        assert_eq!(b.eval(Vec3::new(0.0, 1.21, 0.0)), 0.0);
+        assert_relative_eq!(b.eval(Vec3::new(0.0, 0.0, 1.0)), 0.5, epsilon = 1e-6);
     }
 
     #[test]

@@ -163,6 +163,17 @@ mod tests {
     }
 
     #[test]
+    fn fast_floor_is_floor() {
+        for g in [
+            -3.5f32, -3.0, -2.9999998, -0.0, 0.0, 1e-30, -1e-30, 0.5, 7.0, 7.9999995, 1e7, -1e9,
+        ] {
+            let (f, t) = floor_frac(g);
+            assert_eq!(f as f32, g.floor(), "{g}");
+            assert_eq!(t, g - g.floor(), "{g}");
+        }
+    }
+
+    #[test]
     fn clamped_stays_inside() {
         let s = Stencil::new(Vec3::new(-5.0, 10.0, 1.5), [4, 4, 4], Wrap::Clamped);
         assert!(s.index.iter().all(|&i| i < 64));

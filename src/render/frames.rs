@@ -2,7 +2,6 @@
 //! beside the volumes a run writes (`smokelab run … --render`, experiment 06-1).
 
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use anyhow::Result;
 use serde::Serialize;
@@ -121,7 +120,9 @@ pub fn simulation_scene(sim: &Simulation) -> Scene {
         .iter()
         .map(|g| {
             let color = if g.lift >= 0.0 { look::HOT } else { look::COLD };
-            let density: Scalar = Arc::new(g.density.clone());
+            // The density in its own representation: gridless and SELMA renders
+            // query the procedural field (§6.2, ch. 8).
+            let density: Scalar = g.model.field();
             look::smoke(&g.name, density, color, look::KAPPA, look::GLOW)
         })
         .collect();

@@ -1,0 +1,540 @@
+//! Shared by experiments 06-3 and 06-5: run the hot/cold scenario with the
+//! density held each way, capture pictures at chosen frames, and plot the
+//! per-step metrics of the modes against each other.
+//!
+//! Every mode runs the same configuration but for the density mode, so the
+//! runs differ only by how the density is held (and by the flow that
+//! density then drives). Each writes `<out>/<label>/` (metrics.csv,
+//! manifest.json, slice previews; volumes are git-ignored). Pictures:
+//! - **slices**: the mid-plane `z = L/2` of the density *fields*, queried
+//!   pixel by pixel ([`preview::field_slice`]) — resolution independent, so
+//!   gridless and SELMA detail finer than the grid shows;
+//! - **renders**: the ray marcher (appendix A) on every gas sampled at twice
+//!   the velocity grid's resolution — the sampling the metrics use — with
+//!   a march step of half that fine cell. Rendering the gridless chain
+//!   itself at every march sample would cost (pixels × samples × steps)
+//!   walks, minutes per frame; the 2× cache keeps every mode on equal terms.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result};
+use image::RgbImage;
+use serde::Serialize;
+
+use super::Context;
+use crate::density::probe;
+use crate::density::{DensityMode, DensityModel};
+use crate::field::Scalar;
+use crate::grid::ScalarGrid;
+use crate::io::{self, preview};
+use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
+use crate::render::camera::Camera;
+use crate::render::output::{self, Display};
+use crate::render::phase::Phase;
+use crate::render::{look, render, RenderSettings, Scene};
+use crate::run::{self, RunOptions, SaveFrames};
+use crate::scenario::hot_cold::HotColdConfig;
+use crate::simulation::Simulation;
+
+/// One density mode to run.
+pub(super) struct ModeRun {
+    /// Folder and legend name (`gridded`, `gridless`, `selma`, `selma-fine`).
+    pub label: String,
+    /// The hot/cold configuration, density mode included.
+    pub config: HotColdConfig,
+}
+
+impl ModeRun {
+    /// `base` with the density held as `mode`.
+    pub fn new(base: &HotColdConfig, mode: DensityMode) -> Self {
+        Self {
+            label: mode.name().into(),
+            config: HotColdConfig {
+                density: mode,
+                ..base.clone()
+            },
+        }
+    }
+
+    /// Gridless with injection spheres of smooth edge `edge` instead of the
+    /// notes' solid mask: the symmetry control.
+    pub fn gridless_smooth(base: &HotColdConfig, edge: f32) -> Self {
+        Self {
+            label: "gridless-smooth".into(),
+            config: HotColdConfig {
+                density: DensityMode::Gridless,
+                source_edge: edge,
+                ..base.clone()
+            },
+        }
+    }
+
+    /// SELMA with its map grid `factor` times finer than the velocity (SELMA^fine).
+    pub fn selma_fine(base: &HotColdConfig, factor: usize) -> Self {
+        Self {
+            label: "selma-fine".into(),
+            config: HotColdConfig {
+                density: DensityMode::Selma,
+                map_res: Some(factor * base.res),
+                ..base.clone()
+            },
+        }
+    }
+}
+
+/// Picture sizes.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Look {
+    /// Width of a slice in pixels.
+    pub slice: u32,
+    /// Side of a square render in pixels.
+    pub render: u32,
+}
+
+/// The pictures of one frame.
+pub(super) struct Captured {
+    /// Mid-plane slice of the fields.
+    pub slice: RgbImage,
+    /// Ray-marched render of the 2× sampling.
+    pub render: RgbImage,
+}
+
+/// What one mode's run produced.
+pub(super) struct ModeResult {
+    /// Legend name.
+    pub label: String,
+    /// The run's folder.
+    pub dir: PathBuf,
+    /// Pictures at the captured frames, in frame order.
+    pub frames: Vec<Captured>,
+    /// SELMA re-anchorings of the hot gas over the run (0 otherwise).
+    pub restarts: usize,
+    /// Hot mass at the last frame by 4× sampling (checks the 2× metric).
+    pub hot_mass_4x: f64,
+    /// The simulation at its last frame.
+    pub sim: Simulation,
+}
+
+/// Mid-plane slice of every gas of `sim`.
+pub(super) fn slice(sim: &Simulation, width: u32) -> RgbImage {
+    let fields: Vec<Scalar> = sim.gases.iter().map(|g| g.model.field()).collect();
+    let layers: Vec<preview::FieldLayer> = sim
+        .gases
+        .iter()
+        .zip(&fields)
+        .map(|(g, f)| preview::FieldLayer {
+            field: &**f,
+            color: if g.lift >= 0.0 {
+                preview::RED
+            } else {
+                preview::BLUE
+            },
+        })
+        .collect();
+    preview::field_slice(&layers, sim.domain(), width, 1.0)
+}
+
+/// Ray-marched render of every gas of `sim`, sampled at 2× (see the module docs).
+pub(super) fn render_fine(sim: &Simulation, side: u32) -> Result<RgbImage> {
+    let fine = sim.domain().refined(probe::REFINE);
+    let volumes = sim
+        .gases
+        .iter()
+        .map(|g| {
+            let mut grid = ScalarGrid::zeros(fine);
+            g.model.sample(&mut grid);
+            let color = if g.lift >= 0.0 { look::HOT } else { look::COLD };
+            look::smoke(&g.name, Arc::new(grid), color, look::KAPPA, look::GLOW)
+        })
+        .collect();
+    let scene = Scene {
+        bounds: fine,
+        volumes,
+        lights: vec![look::key_light(&fine)],
+        phase: Phase::Isotropic,
+    };
+    // Half a fine cell per march step: gridless edges are sharp enough to
+    // alias at one (the notes' figs 7.6–7.7).
+    let settings = RenderSettings {
+        step: Some(0.5 * fine.cell),
+        ..RenderSettings::new(Camera::framing(&fine, side, side, 0.9))
+    };
+    let r = render(&scene, &settings)?;
+    Ok(output::preview(&r.image, &Display::default()))
+}
+
+/// Run one mode into `<ctx.out>/<label>/`, capturing `capture` frames.
+pub(super) fn run_mode(
+    ctx: &Context,
+    mode: &ModeRun,
+    capture: &[usize],
+    look: Look,
+) -> Result<ModeResult> {
+    let config = &mode.config;
+    let mut sim = config.build()?;
+    let dir = ctx.out.join(&mode.label);
+    io::create_output_dir(&dir)?;
+    let opts = RunOptions {
+        out: dir.clone(),
+        frames: config.frames,
+        save: SaveFrames::List(capture.to_vec()),
+        progress: ctx.progress,
+        metrics_every: config.metrics_every,
+        sample_res: None,
+        render: None,
+    };
+    let mut frames = Vec::new();
+    run::run_with(&mut sim, &opts, config, config.seed, |sim, _| {
+        frames.push(Captured {
+            slice: slice(sim, look.slice),
+            render: render_fine(sim, look.render)?,
+        });
+        Ok(())
+    })?;
+    let restarts = match &sim.gases[0].model {
+        DensityModel::Selma(s) => s.restarts(),
+        _ => 0,
+    };
+    let hot_mass_4x = probe::integral(&*sim.gases[0].model.field(), sim.domain(), 4);
+    Ok(ModeResult {
+        label: mode.label.clone(),
+        dir,
+        frames,
+        restarts,
+        hot_mass_4x,
+        sim,
+    })
+}
+
+/// Rows of images stacked, each row side by side, with `gap`-pixel dark
+/// separators.
+pub(super) fn grid(rows: &[Vec<RgbImage>], gap: u32) -> RgbImage {
+    sheet(rows, gap, [40, 40, 40])
+}
+
+/// Rows of images on a background of colour `bg`.
+fn sheet(rows: &[Vec<RgbImage>], gap: u32, bg: [u8; 3]) -> RgbImage {
+    let rows: Vec<RgbImage> = rows.iter().map(|r| preview::side_by_side(r, gap)).collect();
+    let w = rows.iter().map(|r| r.width()).max().unwrap_or(1);
+    let h =
+        rows.iter().map(|r| r.height()).sum::<u32>() + gap * rows.len().saturating_sub(1) as u32;
+    let mut out = RgbImage::from_pixel(w, h, image::Rgb(bg));
+    let mut y = 0;
+    for r in &rows {
+        image::imageops::replace(&mut out, r, 0, y as i64);
+        y += r.height() + gap;
+    }
+    out
+}
+
+/// A `metrics.csv`: its column names and rows.
+struct Table {
+    cols: Vec<String>,
+    rows: Vec<Vec<f64>>,
+}
+
+impl Table {
+    fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let mut lines = text.lines();
+        let cols = lines
+            .next()
+            .unwrap_or_default()
+            .split(',')
+            .map(String::from)
+            .collect();
+        let rows = lines
+            .map(|l| {
+                l.split(',')
+                    .map(|v| v.parse().unwrap_or(f64::NAN))
+                    .collect()
+            })
+            .collect();
+        Ok(Self { cols, rows })
+    }
+
+    fn col(&self, name: &str) -> Result<usize> {
+        self.cols
+            .iter()
+            .position(|c| c == name)
+            .with_context(|| format!("metrics.csv has no column {name}"))
+    }
+
+    /// `(time, f(row))` for every row.
+    fn series(&self, f: impl Fn(&[f64]) -> f64) -> Result<Vec<(f64, f64)>> {
+        let t = self.col("time")?;
+        Ok(self.rows.iter().map(|r| (r[t], f(r))).collect())
+    }
+}
+
+/// The colour of a mode in every plot.
+fn color(label: &str) -> plotters::style::RGBColor {
+    match label {
+        "gridded" => PALETTE[0],
+        "gridless" => PALETTE[3],
+        "selma" => PALETTE[2],
+        "gridless-smooth" => PALETTE[1],
+        _ => PALETTE[4],
+    }
+}
+
+/// Plot the metrics of `results` over time: `<out>/metrics_<name>.{png,svg}`
+/// for mass retained, peak density, symmetry, mean gradient, sub-grid
+/// energy, time per step and memory, plus `metrics.png`, all seven on one
+/// sheet. Reads the
+/// runs' `metrics.csv`, so the plots can be redrawn without simulating.
+pub(super) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &str) -> Result<()> {
+    let tables: Vec<(String, Table)> = results
+        .iter()
+        .map(|(l, dir)| Ok((l.clone(), Table::read(&dir.join("metrics.csv"))?)))
+        .collect::<Result<_>>()?;
+    let time_label = "simulated time";
+    let mut plots: Vec<(&str, Plot)> = vec![];
+    let mut add =
+        |name: &'static str, plot: Plot, f: &dyn Fn(&Table) -> Result<Vec<Series>>| -> Result<()> {
+            let mut p = plot;
+            for (label, t) in &tables {
+                for s in f(t)? {
+                    let name = if s.name.is_empty() {
+                        label.clone()
+                    } else {
+                        format!("{label} {}", s.name)
+                    };
+                    p = p.series(Series { name, ..s }.colored(color(label)));
+                }
+            }
+            plots.push((name, p));
+            Ok(())
+        };
+    add(
+        "mass",
+        Plot::new(
+            format!("{title}: hot mass / injected"),
+            time_label,
+            "∫ρ (2× sampling) / Σ S Δt",
+        )
+        .legend(LegendPosition::LowerLeft),
+        &|t| {
+            let (m, i) = (t.col("hot_mass")?, t.col("hot_injected")?);
+            Ok(vec![
+                Series::line("", t.series(|r| r[m] / r[i])?).styled(Style::LineMarkers)
+            ])
+        },
+    )?;
+    add(
+        "peak",
+        Plot::new(
+            format!("{title}: peak density"),
+            time_label,
+            "max ρ_hot (2× sampling)",
+        )
+        .legend(LegendPosition::UpperLeft),
+        &|t| {
+            let m = t.col("hot_max")?;
+            Ok(vec![
+                Series::line("", t.series(|r| r[m])?).styled(Style::LineMarkers)
+            ])
+        },
+    )?;
+    add(
+        "symmetry",
+        Plot::new(
+            format!("{title}: mirror-symmetry error"),
+            time_label,
+            "relative max error",
+        )
+        .log_y()
+        .legend(LegendPosition::UpperLeft)
+        .annotate(Annotation::at_fraction(
+            0.35,
+            0.9,
+            "solid: densities · dashed: velocity (0 is not drawn)",
+        )),
+        &|t| {
+            let (d, v) = (t.col("mirror_error")?, t.col("vel_mirror_error")?);
+            Ok(vec![
+                Series::line("ρ", t.series(|r| r[d])?),
+                Series::line("u", t.series(|r| r[v])?).styled(Style::Dashed),
+            ])
+        },
+    )?;
+    add(
+        "gradient",
+        Plot::new(
+            format!("{title}: detail"),
+            time_label,
+            "mean |∇ρ_hot| (2× sampling)",
+        )
+        .legend(LegendPosition::UpperLeft),
+        &|t| {
+            let g = t.col("hot_grad")?;
+            Ok(vec![
+                Series::line("", t.series(|r| r[g])?).styled(Style::LineMarkers)
+            ])
+        },
+    )?;
+    add(
+        "subgrid",
+        Plot::new(
+            format!("{title}: sub-grid detail"),
+            time_label,
+            "energy beyond the velocity grid's Nyquist",
+        )
+        .log_y()
+        .legend(LegendPosition::LowerRight),
+        &|t| {
+            let g = t.col("hot_subgrid")?;
+            Ok(vec![
+                Series::line("", t.series(|r| r[g])?).styled(Style::LineMarkers)
+            ])
+        },
+    )?;
+    add(
+        "time",
+        Plot::new(
+            format!("{title}: wall time per step"),
+            time_label,
+            "seconds (advect + density + force + project)",
+        )
+        .log_y()
+        .legend(LegendPosition::UpperLeft),
+        &|t| {
+            let c: Vec<usize> = ["t_advect", "t_density", "t_force", "t_project"]
+                .iter()
+                .map(|n| t.col(n))
+                .collect::<Result<_>>()?;
+            Ok(vec![Series::line(
+                "",
+                t.series(|r| c.iter().map(|&i| r[i]).sum())?,
+            )])
+        },
+    )?;
+    add(
+        "memory",
+        Plot::new(
+            format!("{title}: memory of the densities"),
+            time_label,
+            "MiB held (both gases)",
+        )
+        .log_y()
+        .legend(LegendPosition::UpperLeft),
+        &|t| {
+            let b = t.col("density_bytes")?;
+            Ok(vec![Series::line("", t.series(|r| r[b] / 1048576.0)?)])
+        },
+    )?;
+    let mut pngs = vec![];
+    for (name, p) in &plots {
+        let [png, _] = p.write(&out.join(format!("metrics_{name}")))?;
+        pngs.push(image::open(&png)?.to_rgb8());
+    }
+    let rows: Vec<Vec<RgbImage>> = pngs.chunks(4).map(|c| c.to_vec()).collect();
+    io::write_png(&out.join("metrics.png"), &sheet(&rows, 0, [255; 3]))
+}
+
+/// One line of `summary.csv`.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct SummaryRow {
+    /// Mode label.
+    pub mode: String,
+    /// Hot mass at the last frame, 2× sampling.
+    pub hot_mass: f64,
+    /// Peak hot density at the last frame, 2× sampling.
+    pub hot_max: f64,
+    /// Hot mass at the last frame, 4× sampling.
+    pub hot_mass_4x: f64,
+    /// Exact injected hot mass.
+    pub hot_injected: f64,
+    /// Largest density mirror error over the run.
+    pub max_mirror_error: f64,
+    /// Largest velocity mirror error over the run.
+    pub max_vel_mirror_error: f64,
+    /// Mean |∇ρ_hot| at the last frame.
+    pub hot_grad: f64,
+    /// Sub-grid energy fraction of the hot gas at the last frame.
+    pub hot_subgrid: f64,
+    /// Wall seconds per step (advect + density + force + project), mean over the run.
+    pub mean_step_seconds: f64,
+    /// The same, over the last tenth of the run.
+    pub last_step_seconds: f64,
+    /// Bytes held by the densities at the last frame.
+    pub density_bytes: f64,
+    /// SELMA re-anchorings of the hot gas.
+    pub restarts: usize,
+}
+
+/// Summarise each mode from its `metrics.csv`; write `<out>/summary.csv`.
+pub(super) fn summarise(out: &Path, results: &[ModeResult]) -> Result<Vec<SummaryRow>> {
+    let mut rows = vec![];
+    for r in results {
+        let t = Table::read(&r.dir.join("metrics.csv"))?;
+        let last = t.rows.last().context("empty metrics.csv")?;
+        let c = |n: &str| t.col(n);
+        let max = |i: usize| t.rows.iter().map(|r| r[i]).fold(0.0, f64::max);
+        let step: Vec<usize> = ["t_advect", "t_density", "t_force", "t_project"]
+            .iter()
+            .map(|n| c(n))
+            .collect::<Result<_>>()?;
+        let per_step: Vec<f64> = t
+            .rows
+            .iter()
+            .map(|r| step.iter().map(|&i| r[i]).sum())
+            .collect();
+        let tail = &per_step[per_step.len() - per_step.len().div_ceil(10)..];
+        rows.push(SummaryRow {
+            mode: r.label.clone(),
+            hot_mass: last[c("hot_mass")?],
+            hot_max: last[c("hot_max")?],
+            hot_mass_4x: r.hot_mass_4x,
+            hot_injected: last[c("hot_injected")?],
+            max_mirror_error: max(c("mirror_error")?),
+            max_vel_mirror_error: max(c("vel_mirror_error")?),
+            hot_grad: last[c("hot_grad")?],
+            hot_subgrid: last[c("hot_subgrid")?],
+            mean_step_seconds: per_step.iter().sum::<f64>() / per_step.len() as f64,
+            last_step_seconds: tail.iter().sum::<f64>() / tail.len() as f64,
+            density_bytes: last[c("density_bytes")?],
+            restarts: r.restarts,
+        });
+    }
+    let cols = [
+        "mode",
+        "hot_mass",
+        "hot_max",
+        "hot_mass_4x",
+        "hot_injected",
+        "max_mirror_error",
+        "max_vel_mirror_error",
+        "hot_grad",
+        "hot_subgrid",
+        "mean_step_seconds",
+        "last_step_seconds",
+        "density_bytes",
+        "restarts",
+    ];
+    let mut text = cols.join(",") + "\n";
+    for r in &rows {
+        text.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.mode,
+            r.hot_mass,
+            r.hot_max,
+            r.hot_mass_4x,
+            r.hot_injected,
+            r.max_mirror_error,
+            r.max_vel_mirror_error,
+            r.hot_grad,
+            r.hot_subgrid,
+            r.mean_step_seconds,
+            r.last_step_seconds,
+            r.density_bytes,
+            r.restarts
+        ));
+    }
+    io::write_atomic(&out.join("summary.csv"), |w| {
+        Ok(std::io::Write::write_all(w, text.as_bytes())?)
+    })?;
+    Ok(rows)
+}

@@ -1,0 +1,192 @@
+//! Gridless density — §6.2 and eqs 7.1–7.4 of the notes.
+//!
+//! The density is never sampled onto a grid during the run. Each step keeps
+//! its velocity grid `u_k` (shared between gases, [`Arc`]) and the density
+//! after `n` steps is the procedural chain
+//!
+//! ```text
+//! ρ_n(x) = ρ_{n−1}(B_n(x)) + S(x) Δt,        B_k = backtrace through u_k  (eq 7.4 + source)
+//! ```
+//!
+//! evaluated by walking back (DESIGN.md, "Gridless density with sources"):
+//!
+//! ```text
+//! acc = 0
+//! for k = n … 1 { acc += S(x) Δt;  x = B_k(x) }
+//! acc += ρ₀(x)
+//! ```
+//!
+//! `B_k` is [`crate::advection::departure_point`] — the very backtrace the
+//! gridded path uses — so gridless and gridded densities on the same velocity
+//! history differ only by the gridded path's per-step resampling. Positions
+//! are wrapped into the periodic box after every backtrace, and `S`, `ρ₀` are
+//! evaluated at wrapped points (the box is periodic for every field).
+//!
+//! Cost: memory grows by one velocity grid per step, and so does the cost of
+//! every query — including the buoyancy term, which evaluates the density at
+//! every velocity cell centre every step, so a run of `n` steps costs
+//! `O(n²)` backtraces per cell. Queries are batched: a whole slice of points
+//! walks back one step at a time, so each stored grid is streamed once per
+//! batch and the source costs one batched call per step.
+
+use std::sync::Arc;
+
+use glam::Vec3;
+
+use super::{wrap_grid, Buffer, StepInput};
+use crate::advection::{departure_point, Backtrace};
+use crate::domain::Domain;
+use crate::field::{Scalar, ScalarField};
+use crate::grid::{ScalarGrid, VectorGrid};
+
+/// One stored step of the velocity history.
+#[derive(Clone)]
+struct PastStep {
+    velocity: Arc<VectorGrid>,
+    dt: f32,
+    backtrace: Backtrace,
+}
+
+/// The gridless density as a field: the velocity history, the source and
+/// the initial density. Cloning it is cheap (the grids are shared) and the
+/// clone is an immutable snapshot.
+#[derive(Clone)]
+pub struct GridlessField {
+    domain: Domain,
+    steps: Vec<PastStep>,
+    initial: Option<Scalar>,
+    source: Option<Scalar>,
+}
+
+impl GridlessField {
+    /// No steps yet: the field is `initial` (zero if `None`), wrapped
+    /// periodically into `domain`, the velocity grid's box.
+    pub fn new(domain: Domain, initial: Option<Scalar>, source: Option<Scalar>) -> Self {
+        Self {
+            domain,
+            steps: Vec::new(),
+            initial,
+            source,
+        }
+    }
+
+    /// Append one step: advect with `velocity` over `dt`, then inject `S Δt`.
+    ///
+    /// # Panics
+    /// If `velocity` is on another domain.
+    pub fn push(&mut self, velocity: Arc<VectorGrid>, dt: f32, backtrace: Backtrace) {
+        assert_eq!(
+            velocity.domain(),
+            &self.domain,
+            "gridless: velocity on another domain"
+        );
+        self.steps.push(PastStep {
+            velocity,
+            dt,
+            backtrace,
+        });
+    }
+
+    /// Number of steps taken.
+    pub fn steps(&self) -> usize {
+        self.steps.len()
+    }
+
+    /// The stored velocity grids, oldest first.
+    pub fn velocities(&self) -> impl Iterator<Item = &Arc<VectorGrid>> {
+        self.steps.iter().map(|s| &s.velocity)
+    }
+}
+
+impl ScalarField for GridlessField {
+    fn eval(&self, p: Vec3) -> f32 {
+        let mut out = [0.0];
+        self.eval_batch(&[p], &mut out);
+        out[0]
+    }
+
+    fn eval_batch(&self, points: &[Vec3], out: &mut [f32]) {
+        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
+        let d = &self.domain;
+        let mut g: Vec<Vec3> = points
+            .iter()
+            .map(|&p| wrap_grid(d.grid_coords(p), d.dims))
+            .collect();
+        let mut world = vec![Vec3::ZERO; points.len()];
+        let mut values = vec![0.0f32; points.len()];
+        out.fill(0.0);
+        for step in self.steps.iter().rev() {
+            if let Some(source) = &self.source {
+                for (w, &gi) in world.iter_mut().zip(&g) {
+                    *w = d.world_of(gi);
+                }
+                source.eval_batch(&world, &mut values);
+                for (o, s) in out.iter_mut().zip(&values) {
+                    *o += s * step.dt;
+                }
+            }
+            let dt_cells = step.dt / d.cell;
+            let u = &*step.velocity;
+            for gi in g.iter_mut() {
+                *gi = wrap_grid(departure_point(u, *gi, dt_cells, step.backtrace), d.dims);
+            }
+        }
+        if let Some(initial) = &self.initial {
+            for (w, &gi) in world.iter_mut().zip(&g) {
+                *w = d.world_of(gi);
+            }
+            initial.eval_batch(&world, &mut values);
+            for (o, r) in out.iter_mut().zip(&values) {
+                *o += r;
+            }
+        }
+    }
+}
+
+/// A gridless density and its cache at the velocity grid's cell centres.
+#[derive(Clone)]
+pub struct Gridless {
+    field: GridlessField,
+    centres: ScalarGrid,
+}
+
+impl Gridless {
+    /// A density starting at `initial`, injected at rate `source`, on the
+    /// velocity grid `domain`.
+    pub fn new(domain: Domain, initial: Option<Scalar>, source: Option<Scalar>) -> Self {
+        let field = GridlessField::new(domain, initial, source);
+        let centres = ScalarGrid::from_field(domain, &field);
+        Self { field, centres }
+    }
+
+    /// Keep the step's velocity (no computation: the work is in every query).
+    ///
+    /// # Panics
+    /// If the input has no velocity snapshot.
+    pub fn step(&mut self, input: &StepInput<'_>) {
+        let u = input
+            .snapshot
+            .expect("gridless density needs the step's velocity snapshot");
+        self.field.push(Arc::clone(u), input.dt, input.backtrace);
+    }
+
+    /// Walk back from every cell centre (the buoyancy input).
+    pub fn evaluate_centres(&mut self) {
+        self.centres.write_field(&self.field);
+    }
+
+    /// The density at the cell centres as of the last [`Self::evaluate_centres`].
+    pub fn density(&self) -> &ScalarGrid {
+        &self.centres
+    }
+
+    /// The density as a field.
+    pub fn field(&self) -> &GridlessField {
+        &self.field
+    }
+
+    pub(super) fn buffers(&self, out: &mut Vec<Buffer>) {
+        out.push(Buffer::of_scalar(&self.centres));
+        out.extend(self.field.velocities().map(|u| Buffer::of_vector(u)));
+    }
+}
