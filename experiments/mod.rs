@@ -76,9 +76,9 @@ pub struct Experiment {
 /// Every experiment, in the notes' order.
 pub const ALL: &[Experiment] = &[
     hot_cold_gridded::EXPERIMENT,
-    slab_box::EXPERIMENT,
     hot_cold_gridless::EXPERIMENT,
     density_modes::EXPERIMENT,
+    slab_box::EXPERIMENT,
     gridless_noise_step::EXPERIMENT,
     henyey_greenstein::EXPERIMENT,
     fournier_forand::EXPERIMENT,

@@ -272,12 +272,13 @@ impl RunArgs {
 /// `smokelab experiment`.
 #[derive(Debug, Args)]
 pub struct ExperimentArgs {
-    /// Experiment id, e.g. `06-1` (see `--list`).
+    /// Experiment id, e.g. `06-1` (see `--list`), or `all` to run every one in turn.
     pub id: Option<String>,
     /// List the experiments and what they reproduce.
     #[arg(long)]
     pub list: bool,
-    /// Output folder (default: `results/<id>/`).
+    /// Output folder (default: `results/<id>/`; with `all`, the parent of
+    /// one folder per experiment, default `results/`).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Run at the notes' full sizes instead of the cheap default.
@@ -406,11 +407,23 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     }
     let Some(id) = &args.id else {
         return Err(InputError::new(format!(
-            "give an experiment id or --list; known ids: {}",
+            "give an experiment id, `all` or --list; known ids: {}",
             experiments::ids().join(", ")
         ))
         .into());
     };
+    let size = if args.full {
+        experiments::Size::Full
+    } else if args.smoke {
+        experiments::Size::Smoke
+    } else {
+        experiments::Size::Default
+    };
+    if id == "all" {
+        let parent = args.out.clone().unwrap_or_else(|| PathBuf::from("results"));
+        io::check_output_dir(&parent)?;
+        return run_all_experiments(&parent, size, !args.quiet);
+    }
     let exp = experiments::find(id)?;
     let out = args
         .out
@@ -419,13 +432,7 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     io::check_output_dir(&out)?;
     let ctx = experiments::Context {
         out: out.clone(),
-        size: if args.full {
-            experiments::Size::Full
-        } else if args.smoke {
-            experiments::Size::Smoke
-        } else {
-            experiments::Size::Default
-        },
+        size,
         progress: !args.quiet,
     };
     let start = std::time::Instant::now();
@@ -437,5 +444,72 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
         start.elapsed().as_secs_f64(),
         out.display()
     );
+    Ok(())
+}
+
+/// `smokelab experiment all`: every experiment in the notes' order into
+/// `parent/<folder>/`, going on past failures, then a table of what ran, how
+/// long and where it wrote — printed and saved as `parent/experiments.csv`.
+fn run_all_experiments(
+    parent: &std::path::Path,
+    size: experiments::Size,
+    progress: bool,
+) -> Result<()> {
+    let mut rows = Vec::new();
+    for exp in experiments::ALL {
+        let out = parent.join(exp.folder);
+        println!("== experiment {} ({})", exp.id, exp.reproduces);
+        let ctx = experiments::Context {
+            out: out.clone(),
+            size,
+            progress,
+        };
+        let start = std::time::Instant::now();
+        let status = match (exp.run)(&ctx) {
+            Ok(()) => "ok".to_string(),
+            Err(e) => {
+                eprintln!("experiment {} failed: {e:#}", exp.id);
+                format!("failed: {e}")
+            }
+        };
+        rows.push((exp, start.elapsed().as_secs_f64(), out, status));
+    }
+    let mut table = format!(
+        "{:<7} {:<22} {:>9}  {:<28} {}\n",
+        "id", "reproduces", "seconds", "output", "status"
+    );
+    let mut csv = String::from("id,reproduces,seconds,output,status\n");
+    for (exp, secs, out, status) in &rows {
+        table.push_str(&format!(
+            "{:<7} {:<22} {:>9.1}  {:<28} {}\n",
+            exp.id,
+            exp.reproduces,
+            secs,
+            out.display(),
+            status
+        ));
+        csv.push_str(&format!(
+            "{},\"{}\",{:.1},{},\"{}\"\n",
+            exp.id,
+            exp.reproduces,
+            secs,
+            out.display(),
+            status.replace('"', "'")
+        ));
+    }
+    print!("{table}");
+    io::create_output_dir(parent)?;
+    io::write_atomic(&parent.join("experiments.csv"), |w| {
+        use std::io::Write;
+        Ok(w.write_all(csv.as_bytes())?)
+    })?;
+    let failed: Vec<_> = rows
+        .iter()
+        .filter(|r| r.3 != "ok")
+        .map(|r| r.0.id)
+        .collect();
+    if !failed.is_empty() {
+        anyhow::bail!("experiments failed: {}", failed.join(", "));
+    }
     Ok(())
 }

@@ -131,3 +131,36 @@ fn experiment_06_1_smoke_writes_sequence() {
         assert!(dir.path().join("e").join(f).is_file(), "missing {f}");
     }
 }
+
+#[test]
+fn experiment_all_smoke_runs_every_experiment_and_tabulates() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = smokelab(
+        &["experiment", "all", "--smoke", "--quiet", "--out", "all"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = std::fs::read_to_string(dir.path().join("all/experiments.csv")).unwrap();
+    let list = String::from_utf8(smokelab(&["experiment", "--list"], dir.path()).stdout).unwrap();
+    // One row per experiment of the listing (header excluded), each "ok",
+    // each output folder written.
+    let ids: Vec<&str> = list
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert!(ids.len() >= 10, "listing: {list}");
+    let rows: Vec<&str> = table.lines().skip(1).collect();
+    assert_eq!(rows.len(), ids.len(), "{table}");
+    for (row, id) in rows.iter().zip(&ids) {
+        let cells: Vec<&str> = row.split(',').collect();
+        assert_eq!(cells[0], *id, "{row}");
+        assert!(row.ends_with(",\"ok\""), "{row}");
+        let folder = dir.path().join(cells[cells.len() - 2]);
+        assert!(
+            std::fs::read_dir(&folder).is_ok_and(|mut d| d.next().is_some()),
+            "{id} wrote nothing in {}",
+            folder.display()
+        );
+    }
+}
