@@ -273,25 +273,37 @@ pub fn advect_fused(
             s.1.push(chunk);
         }
     }
-    slabs
-        .into_par_iter()
-        .enumerate()
-        .for_each(|(k, (vout, mut outs))| {
+    // One row at a time: trace and build the stencils of the row, then sweep
+    // each quantity through them (tight loops, stencils hot in L1).
+    slabs.into_par_iter().enumerate().for_each_init(
+        || (Vec::with_capacity(nx), Vec::with_capacity(nx)),
+        |(points, stencils), (k, (vout, mut outs))| {
             for j in 0..ny {
-                for i in 0..nx {
-                    let n = j * nx + i;
+                let row = j * nx..(j + 1) * nx;
+                points.clear();
+                stencils.clear();
+                for (i, &u0) in u[k * slab + j * nx..][..nx].iter().enumerate() {
                     let c = Vec3::new(i as f32, j as f32, k as f32);
-                    let g = departure(sampler, c, u[k * slab + n], dt_cells, backtrace);
-                    let st = Stencil::new(g, d.dims, sampler.wrap);
-                    vout[n] = st.apply_vec3(sampler.data);
-                    for ((data, wrap), out) in src.iter().zip(outs.iter_mut()) {
-                        out[n] = if *wrap == sampler.wrap {
-                            st.apply(data)
-                        } else {
-                            Stencil::new(g, d.dims, *wrap).apply(data)
-                        };
+                    let g = departure(sampler, c, u0, dt_cells, backtrace);
+                    points.push(g);
+                    stencils.push(Stencil::new(g, d.dims, sampler.wrap));
+                }
+                for (o, st) in vout[row.clone()].iter_mut().zip(stencils.iter()) {
+                    *o = st.apply_vec3(sampler.data);
+                }
+                for ((data, wrap), out) in src.iter().zip(outs.iter_mut()) {
+                    let out = &mut out[row.clone()];
+                    if *wrap == sampler.wrap {
+                        for (o, st) in out.iter_mut().zip(stencils.iter()) {
+                            *o = st.apply(data);
+                        }
+                    } else {
+                        for (o, &g) in out.iter_mut().zip(points.iter()) {
+                            *o = Stencil::new(g, d.dims, *wrap).apply(data);
+                        }
                     }
                 }
             }
-        });
+        },
+    );
 }

@@ -16,14 +16,18 @@ pub enum Wrap {
 /// The eight corners and weights of a trilinear sample.
 ///
 /// Built from continuous grid coordinates (cell centres at integers); the
-/// indices are linear `[z][y][x]` offsets into a grid with `dims`.
+/// indices are linear `[z][y][x]` offsets into a grid with `dims`, every one
+/// below `cells = nx·ny·nz` by construction, so applying the stencil checks
+/// the data's length once instead of each corner.
 #[derive(Clone, Copy, Debug)]
 pub struct Stencil {
     /// Linear indices of the corners, in the order
     /// `(x0,y0,z0), (x1,y0,z0), (x0,y1,z0), (x1,y1,z0), (x0,y0,z1), …`.
-    pub index: [usize; 8],
+    index: [usize; 8],
     /// Trilinear weights, summing to one.
-    pub weight: [f32; 8],
+    weight: [f32; 8],
+    /// Cells of the grid the indices point into.
+    cells: usize,
 }
 
 /// `⌊g⌋` as an integer and the fraction `g − ⌊g⌋`.
@@ -77,6 +81,7 @@ impl Stencil {
         let (r00, r10, r01, r11) = (row(y0, z0), row(y1, z0), row(y0, z1), row(y1, z1));
         let (sx, sy, sz) = (1.0 - tx, 1.0 - ty, 1.0 - tz);
         Self {
+            cells: nx * ny * dims[2],
             index: [
                 r00 + x0,
                 r00 + x1,
@@ -100,22 +105,16 @@ impl Stencil {
         }
     }
 
-    /// The largest corner index.
-    #[inline(always)]
-    fn max_index(&self) -> usize {
-        self.index.iter().copied().fold(0, usize::max)
-    }
-
     /// Interpolate a scalar array laid out like the grid.
     ///
     /// # Panics
     /// If `data` is too short for the stencil's grid.
     #[inline(always)]
     pub fn apply(&self, data: &[f32]) -> f32 {
-        assert!(self.max_index() < data.len(), "stencil outside the data");
+        assert!(data.len() >= self.cells, "stencil outside the data");
         let mut acc = 0.0;
         for c in 0..8 {
-            // SAFETY: every index is at most `max_index() < data.len()`.
+            // SAFETY: every index is below `cells ≤ data.len()` (Self::new).
             acc += self.weight[c] * unsafe { *data.get_unchecked(self.index[c]) };
         }
         acc
@@ -127,14 +126,11 @@ impl Stencil {
     /// If `data` is too short for the stencil's grid.
     #[inline(always)]
     pub fn apply_vec3(&self, data: &[f32]) -> Vec3 {
-        assert!(
-            3 * self.max_index() + 2 < data.len(),
-            "stencil outside the data"
-        );
+        assert!(data.len() >= 3 * self.cells, "stencil outside the data");
         let mut acc = Vec3::ZERO;
         for c in 0..8 {
             let o = 3 * self.index[c];
-            // SAFETY: `o + 2 ≤ 3 max_index() + 2 < data.len()`.
+            // SAFETY: `index < cells`, so `o + 2 < 3 cells ≤ data.len()`.
             let v = unsafe {
                 Vec3::new(
                     *data.get_unchecked(o),
@@ -170,6 +166,26 @@ mod tests {
             let (f, t) = floor_frac(g);
             assert_eq!(f as f32, g.floor(), "{g}");
             assert_eq!(t, g - g.floor(), "{g}");
+        }
+    }
+
+    #[test]
+    fn indices_stay_inside_for_any_point() {
+        // The unchecked loads of `apply` rely on this invariant.
+        for v in [
+            f32::NAN,
+            f32::INFINITY,
+            -f32::INFINITY,
+            1e30,
+            -1e30,
+            -1e-30,
+            4.0,
+            -4.0,
+        ] {
+            for wrap in [Wrap::Periodic, Wrap::Clamped] {
+                let s = Stencil::new(Vec3::new(v, -v, 0.5 * v), [4, 3, 5], wrap);
+                assert!(s.index.iter().all(|&i| i < s.cells), "{v} {wrap:?}");
+            }
         }
     }
 
