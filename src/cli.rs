@@ -4,7 +4,7 @@
 //! under `runs/`. Bad input is reported as one line naming the value and what
 //! is valid, with exit code 2, before anything is written.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
@@ -40,6 +40,8 @@ pub enum Command {
     Render(crate::render::command::RenderArgs),
     /// Sample a divergence-free noise onto an N³ grid (`noise.npy` + slice PNG).
     Noise(crate::noise::command::NoiseArgs),
+    /// Refresh `paper/paper.md` from `results/` and build it to HTML (pandoc).
+    Paper,
 }
 
 /// `smokelab run`.
@@ -320,6 +322,7 @@ pub fn execute(cli: Cli) -> Result<()> {
             crate::render::command::run(&args)
         }
         Some(Command::Noise(args)) => crate::noise::command::run(&args),
+        Some(Command::Paper) => crate::paper::build(Path::new(".")),
     }
 }
 

@@ -25,6 +25,7 @@
 //! - [`render`] — the volume ray marcher (appendix A), EXR/PNG output;
 //! - [`run`] — driving a simulation through its frames;
 //! - [`experiments`] — numbered reproductions of the notes' figures;
+//! - [`paper`] — `paper/paper.md` refreshed from `results/`, built to HTML;
 //! - [`cli`] — the `smokelab` command line.
 //!
 //! ```
@@ -52,6 +53,7 @@ pub mod grid;
 pub mod io;
 pub mod metrics;
 pub mod noise;
+pub mod paper;
 pub mod plot;
 pub mod projection;
 pub mod render;
