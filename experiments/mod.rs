@@ -102,15 +102,27 @@ pub fn find(id: &str) -> Result<&'static Experiment, InputError> {
     })
 }
 
-/// A table of the experiments for `--list`.
+/// A table of the experiments for `--list`, columns as wide as their entries.
 pub fn listing() -> String {
+    let w_rep = ALL
+        .iter()
+        .map(|e| e.reproduces.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(10);
+    let w_cost = ALL
+        .iter()
+        .map(|e| e.cost.chars().count())
+        .max()
+        .unwrap_or(0)
+        .max(4);
     let mut s = format!(
-        "{:<7} {:<14} {:<10} {}\n",
+        "{:<7} {:<w_rep$} {:<w_cost$} {}\n",
         "id", "reproduces", "cost", "what"
     );
     for e in ALL {
         s.push_str(&format!(
-            "{:<7} {:<14} {:<10} {}\n",
+            "{:<7} {:<w_rep$} {:<w_cost$} {}\n",
             e.id, e.reproduces, e.cost, e.title
         ));
     }
