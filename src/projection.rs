@@ -228,43 +228,55 @@ impl Projection {
         let (cols, c2r, ifft_y) = (&self.columns[c], &self.c2r, &self.ifft_y);
         let scale = 1.0 / self.domain.len() as f32;
         let even_x = nx % 2 == 0;
+        // x and y passes, a few z-slabs per task: gathering kz for a block of
+        // consecutive slabs reads whole cache lines of the columns.
         self.slabs[c]
-            .par_chunks_mut(ny * nxh)
-            .zip(vel.as_slice_mut().par_chunks_mut(3 * nx * ny))
+            .par_chunks_mut(SLAB_BLOCK * ny * nxh)
+            .zip(vel.as_slice_mut().par_chunks_mut(SLAB_BLOCK * 3 * nx * ny))
             .enumerate()
             .for_each_init(
                 || {
                     SlabScratch::new(
                         nx,
-                        ny * nxh,
+                        SLAB_BLOCK * ny * nxh,
                         c2r.get_scratch_len(),
                         ifft_y.get_inplace_scratch_len(),
                     )
                 },
-                |s, (k, (slab, out))| {
-                    // Scatter kz back: lines[kx][y] for this z.
+                |s, (block, (slabs, out))| {
+                    let k0 = block * SLAB_BLOCK;
+                    let depth = slabs.len() / (ny * nxh);
+                    // Scatter kz back: lines[b][kx][y] for z = k0 + b.
                     for j in 0..ny {
                         for i in 0..nxh {
-                            s.lines[i * ny + j] = cols[(j * nxh + i) * nz + k];
+                            let col = &cols[(j * nxh + i) * nz + k0..][..depth];
+                            for (b, &v) in col.iter().enumerate() {
+                                s.lines[(b * nxh + i) * ny + j] = v;
+                            }
                         }
                     }
-                    ifft_y.process_with_scratch(&mut s.lines, &mut s.fft);
-                    transpose(&s.lines, slab, nxh, ny);
-                    for j in 0..ny {
-                        let line = &mut slab[j * nxh..(j + 1) * nxh];
-                        // A real signal has real DC and (even nx) Nyquist bins;
-                        // drop the round-off imaginary parts realfft would reject.
-                        line[0].im = 0.0;
-                        if even_x {
-                            line[nxh - 1].im = 0.0;
-                        }
-                        c2r.process_with_scratch(line, &mut s.real, &mut s.r2c)
-                            .expect("c2r buffer sizes are planned");
-                        for (v, &r) in out[3 * j * nx..3 * (j + 1) * nx]
-                            .chunks_exact_mut(3)
-                            .zip(&s.real)
-                        {
-                            v[c] = r * scale;
+                    for b in 0..depth {
+                        let lines = &mut s.lines[b * nxh * ny..(b + 1) * nxh * ny];
+                        let slab = &mut slabs[b * ny * nxh..(b + 1) * ny * nxh];
+                        let out = &mut out[b * 3 * nx * ny..(b + 1) * 3 * nx * ny];
+                        ifft_y.process_with_scratch(lines, &mut s.fft);
+                        transpose(lines, slab, nxh, ny);
+                        for j in 0..ny {
+                            let line = &mut slab[j * nxh..(j + 1) * nxh];
+                            // A real signal has real DC and (even nx) Nyquist bins;
+                            // drop the round-off imaginary parts realfft would reject.
+                            line[0].im = 0.0;
+                            if even_x {
+                                line[nxh - 1].im = 0.0;
+                            }
+                            c2r.process_with_scratch(line, &mut s.real, &mut s.r2c)
+                                .expect("c2r buffer sizes are planned");
+                            for (v, &r) in out[3 * j * nx..3 * (j + 1) * nx]
+                                .chunks_exact_mut(3)
+                                .zip(&s.real)
+                            {
+                                v[c] = r * scale;
+                            }
                         }
                     }
                 },
@@ -314,7 +326,11 @@ impl Projection {
     }
 }
 
-/// Per-task scratch for the x and y passes of one slab.
+/// z-slabs per task of the inverse x/y pass: 4 complex f32 = one 32-byte
+/// run of a kz column per gather.
+const SLAB_BLOCK: usize = 4;
+
+/// Per-task scratch for the x and y passes of one slab (or block of slabs).
 struct SlabScratch {
     real: Vec<f32>,
     lines: Vec<Complex32>,

@@ -30,7 +30,7 @@ fn max_abs(a: &VectorGrid) -> f32 {
     a.as_slice().iter().fold(0.0f32, |m, v| m.max(v.abs()))
 }
 
-const SHAPES: [[usize; 3]; 3] = [[16, 16, 16], [17, 12, 20], [32, 32, 32]];
+const SHAPES: [[usize; 3]; 4] = [[16, 16, 16], [17, 12, 20], [9, 10, 11], [32, 32, 32]];
 
 #[test]
 fn random_fields_become_discretely_divergence_free() {
