@@ -1,12 +1,15 @@
 //! # C-1 — convergence suite (observed orders of accuracy)
 //!
 //! Runs every study of `smokelab::convergence::cases` against its exact
-//! solution, refining at a fixed CFL number, and fits the observed order by
-//! least squares — the report behind "how accurate is it?". The CI runs the
-//! same studies at smaller sizes (`tests/convergence.rs`).
+//! solution — advection, Navier–Stokes and projection refining the grid at a
+//! fixed CFL number, gridless advection refining Δt, SELMA its map grid and
+//! curl noise its finite-difference step — and fits the observed order by
+//! least squares: the report behind "how accurate is it?". The CI runs the
+//! same studies at smaller sizes (`tests/convergence.rs`); its ignored test
+//! `c1_default_studies_are_within_their_bands` runs this experiment.
 //!
-//! Run: `smokelab experiment C-1` (about a minute on 2 cores; `--full` adds a
-//! finer level to every study; `--smoke` is the coarse subset).
+//! Run: `smokelab experiment C-1` (COST on 2 cores; `--full` adds a
+//! finer level to most studies; `--smoke` is the coarse subset).
 //!
 //! Writes `results/convergence/`: `<study>.csv` (h, error, rate), a log-log
 //! plot per study with a slope guide of the expected order (`<study>.png`,
@@ -16,8 +19,9 @@ use anyhow::Result;
 
 use super::{Context, Experiment, Size};
 use crate::advection::Backtrace;
-use crate::convergence::cases::{self, Study};
+use crate::convergence::cases::{self, Sampling, Study};
 use crate::io::{self, manifest::Manifest, CsvLog};
+use crate::noise::curl::FdScheme;
 use crate::plot::{Annotation, Plot, Series, Style};
 
 /// Registry entry.
@@ -33,37 +37,92 @@ pub const EXPERIMENT: Experiment = Experiment {
 /// Half-width of the band an observed order must fall in to pass.
 const BAND: f64 = 0.25;
 
-/// Resolutions per study family for a run size: `(advection 1D, rotation and
-/// Taylor–Green, projection)`.
-fn levels(size: Size) -> (Vec<usize>, Vec<usize>, Vec<usize>) {
+/// Refinement levels per study family for a run size.
+struct Levels {
+    /// Cells across the 1D uniform-flow studies.
+    line: Vec<usize>,
+    /// Cells across the rotation and Taylor–Green slabs.
+    plane: Vec<usize>,
+    /// Cells across the projection cube.
+    cube: Vec<usize>,
+    /// Steps per quarter turn of the gridless Euler and RK2 studies.
+    steps: Vec<usize>,
+    /// The same for RK3, coarser: below Δt ≈ 1/128 its error is f32 round-off.
+    steps_rk3: Vec<usize>,
+    /// SELMA map cells across.
+    map: Vec<usize>,
+    /// Curl-noise finite-difference steps, in lattice cells.
+    fd: Vec<f32>,
+}
+
+fn levels(size: Size) -> Levels {
     match size {
-        Size::Smoke => (vec![32, 64, 128], vec![16, 32, 64], vec![16, 32]),
-        Size::Default => (
-            vec![32, 64, 128, 256, 512],
-            vec![32, 64, 128, 256],
-            vec![16, 32, 64, 128],
-        ),
-        Size::Full => (
-            vec![32, 64, 128, 256, 512, 1024],
-            vec![32, 64, 128, 256, 512],
-            vec![16, 32, 64, 128, 192],
-        ),
+        Size::Smoke => Levels {
+            line: vec![32, 64, 128],
+            plane: vec![16, 32, 64],
+            cube: vec![16, 32],
+            steps: vec![8, 16, 32],
+            steps_rk3: vec![4, 8, 16],
+            map: vec![16, 32],
+            fd: vec![0.1, 0.05, 0.025],
+        },
+        Size::Default => Levels {
+            line: vec![32, 64, 128, 256, 512],
+            plane: vec![32, 64, 128, 256],
+            cube: vec![16, 32, 64, 128],
+            steps: vec![8, 16, 32, 64, 128],
+            steps_rk3: vec![4, 8, 16, 32],
+            map: vec![16, 32, 64, 128],
+            fd: vec![0.1, 0.05, 0.025, 0.0125, 0.00625],
+        },
+        Size::Full => Levels {
+            line: vec![32, 64, 128, 256, 512, 1024],
+            plane: vec![32, 64, 128, 256, 512],
+            cube: vec![16, 32, 64, 128, 192],
+            steps: vec![8, 16, 32, 64, 128, 256],
+            steps_rk3: vec![4, 8, 16, 32],
+            map: vec![16, 32, 64, 128, 256],
+            fd: vec![0.1, 0.05, 0.025, 0.0125, 0.00625],
+        },
     }
+}
+
+/// Every study at the levels of `size`.
+fn studies(size: Size) -> Vec<Study> {
+    let l = levels(size);
+    let mut studies: Vec<Study> = vec![];
+    for bt in Backtrace::ALL {
+        studies.push(cases::sl_uniform(bt, &l.line));
+        studies.push(cases::sl_rotation(bt, &l.plane));
+    }
+    studies.push(cases::quick_uniform(Sampling::Point, &l.line));
+    studies.push(cases::quick_uniform(Sampling::CellAverage, &l.line));
+    studies.push(cases::quick_rotation(&l.plane));
+    studies.push(cases::taylor_green_sl(&l.plane));
+    studies.push(cases::taylor_green_quick(&l.plane));
+    studies.push(cases::projection_discrete(&l.cube));
+    for bt in Backtrace::ALL {
+        let steps = if bt == Backtrace::Rk3 {
+            &l.steps_rk3
+        } else {
+            &l.steps
+        };
+        studies.push(cases::gridless_rotation(bt, steps));
+    }
+    studies.push(cases::gridless_field_chain(&l.steps));
+    studies.push(cases::selma_to_gridless(&l.map));
+    for scheme in [FdScheme::Central, FdScheme::Backward] {
+        studies.push(cases::curl_fd_divergence(scheme, &l.fd));
+    }
+    studies
 }
 
 fn run(ctx: &Context) -> Result<()> {
     let start = std::time::Instant::now();
-    let (line, plane, cube) = levels(ctx.size);
     io::create_output_dir(&ctx.out)?;
-    let mut studies: Vec<Study> = vec![];
-    for bt in Backtrace::ALL {
-        studies.push(cases::sl_uniform(bt, &line));
-        studies.push(cases::sl_rotation(bt, &plane));
-    }
-    studies.push(cases::taylor_green_sl(&plane));
-    studies.push(cases::projection_discrete(&cube));
+    let studies = studies(ctx.size);
     let mut table = String::from(
-        "| study | expected order | observed order | pairwise rates | within ±0.25 |\n|---|---|---|---|---|\n",
+        "| study | refined | error | expected order | observed order | pairwise rates | within ±0.25 |\n|---|---|---|---|---|---|---|\n",
     );
     let mut summary = vec![];
     for s in &studies {
@@ -81,14 +140,16 @@ fn run(ctx: &Context) -> Result<()> {
         let ok = (fit.order - s.expected).abs() <= BAND;
         let rates: Vec<String> = fit.rates.iter().map(|r| format!("{r:.2}")).collect();
         table.push_str(&format!(
-            "| {} | {} | {:.3} | {} | {} |\n",
+            "| {} | {} | {} | {} | {:.3} | {} | {} |\n",
             s.name,
+            s.refined,
+            s.norm,
             s.expected,
             fit.order,
             rates.join(", "),
             if ok { "yes" } else { "**no**" }
         ));
-        summary.push(serde_json::json!({"study": s.name, "expected": s.expected, "observed": fit.order, "pass": ok}));
+        summary.push(serde_json::json!({"study": s.name, "refined": s.refined, "norm": s.norm, "expected": s.expected, "observed": fit.order, "pass": ok}));
         if ctx.progress {
             eprintln!(
                 "{}: observed order {:.3} (expected {})",
@@ -112,7 +173,8 @@ fn run(ctx: &Context) -> Result<()> {
     )
 }
 
-/// Log-log plot of error against h with a slope guide through the finest point.
+/// Log-log plot of error against the refined quantity with a slope guide
+/// through the finest point.
 fn plot_study(ctx: &Context, s: &Study, observed: f64) -> Result<()> {
     let points: Vec<(f64, f64)> = s.h.iter().copied().zip(s.error.iter().copied()).collect();
     let (h_fine, e_fine) = *points.last().expect("studies have levels");
@@ -122,7 +184,7 @@ fn plot_study(ctx: &Context, s: &Study, observed: f64) -> Result<()> {
             .collect();
     let all = points.iter().chain(&guide).map(|p| p.1);
     let (lo, hi) = all.fold((f64::MAX, f64::MIN), |(lo, hi), e| (lo.min(e), hi.max(e)));
-    Plot::new(s.name.clone(), "h", "rms error")
+    Plot::new(s.name.clone(), s.refined, format!("error ({})", s.norm))
         .log_x()
         .log_y()
         .y_range(lo / 1.5, hi * 1.5)
