@@ -120,7 +120,8 @@ fn c1_default_studies_are_within_their_bands() {
     )
     .expect("valid manifest");
     let studies = manifest["extra"].as_array().expect("one entry per study");
-    assert!(studies.len() >= 20, "only {} studies", studies.len());
+    // 19 studies: SL ×6, QUICK ×3, Taylor–Green ×2, projection, gridless ×4, SELMA, curl ×2.
+    assert!(studies.len() >= 19, "only {} studies", studies.len());
     let failed: Vec<&serde_json::Value> = studies.iter().filter(|s| s["pass"] != true).collect();
     assert!(failed.is_empty(), "outside the band: {failed:?}");
 }
