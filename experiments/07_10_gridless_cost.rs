@@ -18,7 +18,7 @@
 //! fine-march renders from `k = 0` to `k = F`. Render times are wall times
 //! on a shared machine: relative measures, as the notes say of theirs.
 //!
-//! Run: `smokelab experiment 07-10` (about 2 min on 2 cores: 32³, 30
+//! Run: `smokelab experiment 07-10` (about 35 s on 2 cores: 32³, 30
 //! frames, 7 values of `k`, 160×120; `--full` 50³, 60 frames, 640×480 —
 //! hours; `--smoke` 16³, 6 frames, 64×48).
 
@@ -39,7 +39,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-10",
     reproduces: "fig 7.10",
     title: "render time and memory vs gridless frames, march step cell and cell/10",
-    cost: "~2 min",
+    cost: "~35 s",
     run,
 };
 

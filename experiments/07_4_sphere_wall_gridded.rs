@@ -8,7 +8,7 @@
 //! notes: "a substantial loss of density due to numerical dissipation", and
 //! the wall "looks soft or diffused".
 //!
-//! Run: `smokelab experiment 07-4` (about 5 s on 2 cores: 32³ flow, 30
+//! Run: `smokelab experiment 07-4` (about 3 s on 2 cores: 32³ flow, 30
 //! frames of Δt 0.1, 320×240 image; `--full` the notes' 50³ and 60 frames
 //! of Δt 0.05 at 640×480; `--smoke` 16³, 6 frames, 64×48). March step: one
 //! velocity cell, as the notes' figs 7.4–7.6.
@@ -30,7 +30,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-4",
     reproduces: "figs 7.3, 7.4",
     title: "sphere wall, every frame advected and resampled on the grid",
-    cost: "~5 s",
+    cost: "~3 s",
     run,
 };
 

@@ -7,7 +7,7 @@
 //! and never resampled. The notes: "the edges of filaments have been subtly
 //! sharpened".
 //!
-//! Run: `smokelab experiment 07-5` (about 5 s on 2 cores; sizes as 07-4:
+//! Run: `smokelab experiment 07-5` (about 3 s on 2 cores; sizes as 07-4:
 //! 32³, 30 frames, 320×240 by default, `--full` 50³ and 60 frames at
 //! 640×480). March step: one velocity cell.
 //!
@@ -26,7 +26,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-5",
     reproduces: "fig 7.5",
     title: "sphere wall, all frames gridded but the last, which is gridless",
-    cost: "~5 s",
+    cost: "~3 s",
     run,
 };
 

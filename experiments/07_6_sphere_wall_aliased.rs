@@ -9,7 +9,7 @@
 //! The notes' 50 + 10 of 60 frames is `k = F/6`: 10 at `--full`, 5 of 30 by
 //! default, 1 of 6 at `--smoke`.
 //!
-//! Run: `smokelab experiment 07-6` (about 10 s on 2 cores: 32³, 30 frames,
+//! Run: `smokelab experiment 07-6` (about 5 s on 2 cores: 32³, 30 frames,
 //! 320×240; `--full` 50³, 60 frames, 640×480).
 //!
 //! Writes `results/07-6/`: `render.png`, `initial_final.png`, `data.csv`
@@ -27,7 +27,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-6",
     reproduces: "fig 7.6",
     title: "sphere wall, last sixth of the frames gridless, march step = cell (aliasing)",
-    cost: "~10 s",
+    cost: "~5 s",
     run,
 };
 

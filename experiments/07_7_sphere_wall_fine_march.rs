@@ -5,7 +5,7 @@
 //! with a march step of a tenth of a velocity cell: "the fine detail in the
 //! density field is now resolved".
 //!
-//! Run: `smokelab experiment 07-7` (about 30 s on 2 cores: 32³, 30 frames
+//! Run: `smokelab experiment 07-7` (about 20 s on 2 cores: 32³, 30 frames
 //! with the last 5 gridless, 320×240; `--full` 50³, 60 frames with 10
 //! gridless, 640×480).
 //!
@@ -24,7 +24,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-7",
     reproduces: "fig 7.7",
     title: "sphere wall, last sixth of the frames gridless, march step = cell/10",
-    cost: "~30 s",
+    cost: "~20 s",
     run,
 };
 

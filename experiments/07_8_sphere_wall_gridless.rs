@@ -8,7 +8,7 @@
 //! spatial detail than the original density distribution or velocity
 //! field", without changing the gross motion.
 //!
-//! Run: `smokelab experiment 07-8` (about 1 min on 2 cores: a 30-step chain
+//! Run: `smokelab experiment 07-8` (about 70 s on 2 cores: a 30-step chain
 //! at every march sample of a 320×240 image, 32³ flow; `--full` 50³, 60
 //! frames, 640×480 — tens of minutes).
 //!
@@ -27,7 +27,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-8",
     reproduces: "fig 7.8",
     title: "sphere wall, every frame gridless, march step = cell/10",
-    cost: "~1 min",
+    cost: "~70 s",
     run,
 };
 

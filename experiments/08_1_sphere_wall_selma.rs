@@ -8,7 +8,7 @@
 //! cell. The notes: "the highly detailed result", at constant memory and
 //! query cost.
 //!
-//! Run: `smokelab experiment 08-1` (about 10 s on 2 cores: 32³, 30 frames,
+//! Run: `smokelab experiment 08-1` (about 7 s on 2 cores: 32³, 30 frames,
 //! 320×240; `--full` 50³, 60 frames, 640×480).
 //!
 //! Writes `results/08-1/`: `render.png`, `initial_final.png`, `data.csv`
@@ -26,7 +26,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "08-1",
     reproduces: "fig 8.1",
     title: "sphere wall, every frame SELMA, march step = cell/10",
-    cost: "~10 s",
+    cost: "~7 s",
     run,
 };
 

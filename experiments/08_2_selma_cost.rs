@@ -19,7 +19,7 @@
 //! `manifest.json` (`fits`). Render times are wall times on a shared
 //! machine: relative measures.
 //!
-//! Run: `smokelab experiment 08-2` (about 2 min on 2 cores: 32³, 30
+//! Run: `smokelab experiment 08-2` (about 35 s on 2 cores: 32³, 30
 //! frames, 7 values of `n`, 160×120; `--full` 50³, 60 frames, 640×480 —
 //! hours; `--smoke` 16³, 6 frames, 64×48).
 
@@ -40,7 +40,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "08-2",
     reproduces: "fig 8.2",
     title: "render time and memory vs frames: gridless, SELMA, SELMA-fine",
-    cost: "~2 min",
+    cost: "~35 s",
     run,
 };
 
