@@ -16,6 +16,8 @@ mod density_compare;
 mod density_modes;
 #[path = "A_2_fournier_forand.rs"]
 mod fournier_forand;
+#[path = "07_10_gridless_cost.rs"]
+mod gridless_cost;
 #[path = "07_2_gridless_noise_step.rs"]
 mod gridless_noise_step;
 #[path = "A_1_henyey_greenstein.rs"]
@@ -24,10 +26,26 @@ mod henyey_greenstein;
 mod hot_cold_gridded;
 #[path = "06_3_hot_cold_gridless.rs"]
 mod hot_cold_gridless;
+#[path = "08_2_selma_cost.rs"]
+mod selma_cost;
 #[path = "N_3_simulation_noise_2d.rs"]
 mod simulation_noise_2d;
 #[path = "06_6_slab_box.rs"]
 mod slab_box;
+#[path = "07_6_sphere_wall_aliased.rs"]
+mod sphere_wall_aliased;
+#[path = "07_7_sphere_wall_fine_march.rs"]
+mod sphere_wall_fine_march;
+#[path = "07_4_sphere_wall_gridded.rs"]
+mod sphere_wall_gridded;
+#[path = "07_8_sphere_wall_gridless.rs"]
+mod sphere_wall_gridless;
+#[path = "07_5_sphere_wall_last_gridless.rs"]
+mod sphere_wall_last_gridless;
+#[path = "08_1_sphere_wall_selma.rs"]
+mod sphere_wall_selma;
+#[path = "sphere_wall_series.rs"]
+mod sphere_wall_series;
 
 use std::path::PathBuf;
 
@@ -80,6 +98,14 @@ pub const ALL: &[Experiment] = &[
     density_modes::EXPERIMENT,
     slab_box::EXPERIMENT,
     gridless_noise_step::EXPERIMENT,
+    sphere_wall_gridded::EXPERIMENT,
+    sphere_wall_last_gridless::EXPERIMENT,
+    sphere_wall_aliased::EXPERIMENT,
+    sphere_wall_fine_march::EXPERIMENT,
+    sphere_wall_gridless::EXPERIMENT,
+    gridless_cost::EXPERIMENT,
+    sphere_wall_selma::EXPERIMENT,
+    selma_cost::EXPERIMENT,
     henyey_greenstein::EXPERIMENT,
     fournier_forand::EXPERIMENT,
     simulation_noise_2d::EXPERIMENT,

@@ -18,6 +18,7 @@
 //! - [`density`] — gridded, gridless and SELMA densities (§6.2, ch. 7–8);
 //! - [`noise`] — divergence-free noise velocities (simulation, curl, bitangent, spectral);
 //! - [`timing`] — stage timers, peak memory;
+//! - [`fit`] — least-squares straight lines (cost per frame);
 //! - [`plot`] — line plots (PNG + SVG) for the experiments;
 //! - [`simulation`] — the time step;
 //! - [`scenario`] — hot/cold (§6.1.1), slab in a box (§6.3, fig 6.6);
@@ -49,6 +50,7 @@ pub mod error;
 #[path = "../experiments/mod.rs"]
 pub mod experiments;
 pub mod field;
+pub mod fit;
 pub mod grid;
 pub mod io;
 pub mod metrics;

@@ -36,7 +36,7 @@ use glam::Vec3;
 use super::{wrap_grid, Buffer, StepInput};
 use crate::advection::{departure_point, Backtrace};
 use crate::domain::Domain;
-use crate::field::{Scalar, ScalarField};
+use crate::field::{Scalar, ScalarField, VectorField};
 use crate::grid::{ScalarGrid, VectorGrid};
 
 /// One stored step of the velocity history.
@@ -45,6 +45,18 @@ struct PastStep {
     velocity: Arc<VectorGrid>,
     dt: f32,
     backtrace: Backtrace,
+}
+
+impl PastStep {
+    /// Move grid coordinates `g` back through this step (its backtrace),
+    /// wrapped into the box.
+    fn walk_back(&self, d: &Domain, g: &mut [Vec3]) {
+        let dt_cells = self.dt / d.cell;
+        let u = &*self.velocity;
+        for gi in g.iter_mut() {
+            *gi = wrap_grid(departure_point(u, *gi, dt_cells, self.backtrace), d.dims);
+        }
+    }
 }
 
 /// The gridless density as a field: the velocity history, the source and
@@ -98,6 +110,45 @@ impl GridlessField {
     }
 }
 
+impl GridlessField {
+    /// The backward map of the whole chain, `X_n = B_1 ∘ B_2 ∘ … ∘ B_n`
+    /// (eq 7.4 without the source): each world point walked back through
+    /// every stored step, newest first, wrapped into the box. The
+    /// source-free gridless density is `ρ₀ ∘ X_n`.
+    ///
+    /// # Panics
+    /// If the slices differ in length.
+    pub fn map_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
+        assert_eq!(points.len(), out.len(), "map_batch: slice lengths differ");
+        let d = &self.domain;
+        for (o, &p) in out.iter_mut().zip(points) {
+            *o = wrap_grid(d.grid_coords(p), d.dims);
+        }
+        for step in self.steps.iter().rev() {
+            step.walk_back(d, out);
+        }
+        for o in out.iter_mut() {
+            *o = d.world_of(*o);
+        }
+    }
+}
+
+/// [`GridlessField::map_batch`] as a vector field, to compose densities with
+/// (`ops::compose(ρ₀, map)`).
+pub struct GridlessMap(pub GridlessField);
+
+impl VectorField for GridlessMap {
+    fn eval(&self, p: Vec3) -> Vec3 {
+        let mut out = [Vec3::ZERO];
+        self.0.map_batch(&[p], &mut out);
+        out[0]
+    }
+
+    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
+        self.0.map_batch(points, out);
+    }
+}
+
 impl ScalarField for GridlessField {
     fn eval(&self, p: Vec3) -> f32 {
         let mut out = [0.0];
@@ -125,11 +176,7 @@ impl ScalarField for GridlessField {
                     *o += s * step.dt;
                 }
             }
-            let dt_cells = step.dt / d.cell;
-            let u = &*step.velocity;
-            for gi in g.iter_mut() {
-                *gi = wrap_grid(departure_point(u, *gi, dt_cells, step.backtrace), d.dims);
-            }
+            step.walk_back(d, &mut g);
         }
         if let Some(initial) = &self.initial {
             for (w, &gi) in world.iter_mut().zip(&g) {

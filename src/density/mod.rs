@@ -44,8 +44,8 @@ use crate::field::Scalar;
 use crate::grid::{ScalarGrid, VectorGrid};
 
 pub use gridded::Gridded;
-pub use gridless::{Gridless, GridlessField};
-pub use selma::{Selma, SelmaField};
+pub use gridless::{Gridless, GridlessField, GridlessMap};
+pub use selma::{Selma, SelmaField, SelmaMap};
 
 /// How the density of every gas is held.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]

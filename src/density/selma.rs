@@ -90,7 +90,7 @@ use rayon::prelude::*;
 use super::{wrap_world, Buffer, StepInput};
 use crate::advection::departure_point;
 use crate::domain::Domain;
-use crate::field::{Scalar, ScalarField};
+use crate::field::{Scalar, ScalarField, VectorField};
 use crate::grid::{ScalarGrid, VectorGrid};
 
 /// Corrector iterations of the forward (inverse-backtrace) step of the
@@ -130,6 +130,22 @@ impl SelmaField {
         for (x, &p) in out.iter_mut().zip(points) {
             *x = wrap_world(md, p + self.disp.sample_grid_coords(md.grid_coords(p)));
         }
+    }
+}
+
+/// [`SelmaField::map_batch`] as a vector field, to compose densities with
+/// (`ops::compose(ρ₀, map)`, eq 8.8's `compose(initialdensity, Xmap)`).
+pub struct SelmaMap(pub SelmaField);
+
+impl VectorField for SelmaMap {
+    fn eval(&self, p: Vec3) -> Vec3 {
+        let mut out = [Vec3::ZERO];
+        self.0.map_batch(&[p], &mut out);
+        out[0]
+    }
+
+    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
+        self.0.map_batch(points, out);
     }
 }
 
@@ -400,7 +416,8 @@ impl Selma {
         &self.field
     }
 
-    pub(super) fn buffers(&self, out: &mut Vec<Buffer>) {
+    /// Every buffer held (see [`super::DensityModel::buffers`]).
+    pub fn buffers(&self, out: &mut Vec<Buffer>) {
         out.push(Buffer::of_scalar(&self.centres));
         out.push(Buffer::of_vector(&self.field.disp));
         out.push(Buffer::of_scalar(&self.field.reference));

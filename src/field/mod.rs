@@ -11,6 +11,7 @@
 //! dynamic call per batch, not per point. Fields are `Send + Sync` and shared
 //! through [`Arc`], so building a chain never copies a grid.
 
+pub mod memo;
 pub mod ops;
 
 use std::sync::Arc;

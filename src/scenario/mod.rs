@@ -2,6 +2,7 @@
 
 pub mod hot_cold;
 pub mod slab_box;
+pub mod sphere_wall;
 
 use serde::{Deserialize, Serialize};
 

@@ -1,0 +1,332 @@
+//! Shared by the sphere-wall experiments 07-4 … 07-8, 08-1 (one render of
+//! one holding of the wall) and 07-10, 08-2 (render time and memory against
+//! frames): sizes, the flow, rendering, `data.csv`, and the cost plots drawn
+//! from the CSV with their fitted slopes.
+//!
+//! Sizes: `--smoke` 16³ and 6 frames at 64×48; the default 32³ and 30
+//! frames (Δt 0.1), pictures 320×240 and cost studies 160×120; `--full` the
+//! notes' 50³ and 60 frames (Δt 0.05) at 640×480. The flow covers the same simulated time at every
+//! size. "Cell" in a march step is the velocity grid's cell.
+
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context as _, Result};
+use glam::Vec3;
+use image::RgbImage;
+use serde::Serialize;
+
+use super::{Context, Size};
+use crate::density::probe;
+use crate::domain::Domain;
+use crate::fit::{linear_fit, LinearFit};
+use crate::io::{self, manifest::Manifest, preview};
+use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
+use crate::render::camera::Camera;
+use crate::render::output::{self, Display};
+use crate::render::{render, RenderSettings, RenderStats};
+use crate::scenario::sphere_wall::{
+    AdvectedWall, FlowHistory, GriddedWall, SelmaWall, SphereWallConfig, Wall,
+};
+
+/// The wall and flow of a run size.
+pub(super) fn config(size: Size) -> SphereWallConfig {
+    let (res, frames) = match size {
+        Size::Smoke => (16, 6),
+        Size::Default => (32, 30),
+        Size::Full => (50, 60),
+    };
+    SphereWallConfig {
+        res,
+        frames,
+        ..SphereWallConfig::default()
+    }
+}
+
+/// Image size of the one-picture experiments.
+pub(super) fn picture_size(size: Size) -> (u32, u32) {
+    match size {
+        Size::Smoke => (64, 48),
+        Size::Default => (320, 240),
+        Size::Full => (640, 480),
+    }
+}
+
+/// Image size of the cost studies (many renders each).
+pub(super) fn study_size(size: Size) -> (u32, u32) {
+    match size {
+        Size::Smoke => (64, 48),
+        Size::Default => (160, 120),
+        Size::Full => (640, 480),
+    }
+}
+
+/// How one picture holds the wall over the `F` recorded frames.
+#[derive(Clone, Copy, Debug, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub(super) enum Holding {
+    /// Gridded for `F − k` frames, then `k` gridless (eqs 7.1–7.4).
+    Gridless {
+        /// Gridless frames `k` (`usize::MAX`: all `F`).
+        frames: usize,
+    },
+    /// SELMA over all frames, map grid `factor` × the velocity's (eq 8.8).
+    Selma {
+        /// Map refinement.
+        factor: usize,
+    },
+}
+
+impl Holding {
+    /// Build the wall after all `F` frames.
+    fn advect(self, wall: &Wall, flow: &FlowHistory) -> Result<AdvectedWall> {
+        let f = flow.frames();
+        Ok(match self {
+            Holding::Gridless { frames } => {
+                let k = frames.min(f);
+                if k == f {
+                    AdvectedWall::gridless(wall, None, flow, f)?
+                } else {
+                    let mut g = GriddedWall::new(wall, flow.domain);
+                    for _ in 0..f - k {
+                        g.advance(flow);
+                    }
+                    AdvectedWall::gridless(wall, Some(&g), flow, k)?
+                }
+            }
+            Holding::Selma { factor } => {
+                let mut s = SelmaWall::new(flow, Some(factor * flow.domain.dims[0]))?;
+                for _ in 0..f {
+                    s.advance(flow);
+                }
+                AdvectedWall::selma(wall, &s)
+            }
+        })
+    }
+}
+
+/// Render the wall with march step `cell / march_div`.
+pub(super) fn render_wall(
+    state: &AdvectedWall,
+    wall: &Wall,
+    flow: &FlowHistory,
+    march_div: f32,
+    (width, height): (u32, u32),
+) -> Result<(RgbImage, RenderStats)> {
+    let d = flow.domain;
+    let scene = state.scene(wall, d);
+    // Frame the wall's neighbourhood: 90 % of the box across, a slab of
+    // 30 % of it in depth around the wall's plane.
+    let size = d.size();
+    let view = Domain::new(
+        d.origin + size * Vec3::new(0.05, 0.05, 0.35),
+        0.05 * size.x,
+        [18, 18, 6],
+    )?;
+    let settings = RenderSettings {
+        step: Some(d.cell / march_div),
+        ..RenderSettings::new(Camera::framing(&view, width, height, 0.95))
+    };
+    let r = render(&scene, &settings)?;
+    Ok((output::preview(&r.image, &Display::default()), r.stats))
+}
+
+/// `Σ_rows ∫ρ dV` at twice the velocity grid's resolution.
+fn mass(state: &AdvectedWall, flow: &FlowHistory) -> f64 {
+    state
+        .rows
+        .iter()
+        .map(|r| probe::integral(&**r, &flow.domain, 2))
+        .sum()
+}
+
+/// The one-picture experiments: run the flow, hold the wall as `holding`,
+/// render it with march step `cell / march_div`, and write `render.png`,
+/// `initial_final.png` (fig 7.3 beside the result), `data.csv` (one row:
+/// frames gridded and gridless, march step, render seconds and samples,
+/// density bytes, mass kept) and `manifest.json`.
+pub(super) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Result<()> {
+    let start = Instant::now();
+    let config = config(ctx.size);
+    let (w, h) = picture_size(ctx.size);
+    let flow = FlowHistory::record(&config)?;
+    io::create_output_dir(&ctx.out)?;
+    let wall = Wall::new(&config);
+    let f = flow.frames();
+    let initial = AdvectedWall::gridless(&wall, None, &flow, 0)?;
+    let t = Instant::now();
+    let state = holding.advect(&wall, &flow)?;
+    let setup_seconds = t.elapsed().as_secs_f64();
+    let (img, stats) = render_wall(&state, &wall, &flow, march_div, (w, h))?;
+    let (img0, _) = render_wall(&initial, &wall, &flow, 10.0, (w, h))?;
+    io::write_png(&ctx.out.join("render.png"), &img)?;
+    io::write_png(
+        &ctx.out.join("initial_final.png"),
+        &preview::side_by_side(&[img0, img], 6),
+    )?;
+    let (gridded, gridless, map) = match holding {
+        Holding::Gridless { frames } => (f - frames.min(f), frames.min(f), 0),
+        Holding::Selma { factor } => (0, 0, factor * config.res),
+    };
+    let m0 = mass(&initial, &flow);
+    let mass_kept = mass(&state, &flow) / m0;
+    let csv = format!(
+        "gridded_frames,gridless_frames,selma_map_res,march_step,render_seconds,samples,density_bytes,mass_kept,setup_seconds\n\
+         {gridded},{gridless},{map},{},{},{},{},{mass_kept},{setup_seconds}\n",
+        stats.step,
+        stats.seconds,
+        stats.samples,
+        state.bytes(),
+    );
+    io::write_atomic(&ctx.out.join("data.csv"), |wr| {
+        Ok(wr.write_all(csv.as_bytes())?)
+    })?;
+    let extra = serde_json::json!({
+        "holding": holding,
+        "frames": f,
+        "dt": flow.dt,
+        "max_speed": flow.max_speed(),
+        "render": stats,
+        "density_bytes": state.bytes(),
+        "mass_kept": mass_kept,
+        "setup_seconds": setup_seconds,
+    });
+    io::write_json(
+        &ctx.out.join("manifest.json"),
+        &Manifest::new(config, 0, start.elapsed().as_secs_f64(), extra),
+    )
+}
+
+/// One measured render of a cost study.
+#[derive(Clone, Debug)]
+pub(super) struct CostRow {
+    /// Series name (`march=cell`, `selma-fine`, …).
+    pub series: String,
+    /// The x of the plots: gridless frames (07-10) or advected frames (08-2).
+    pub frames: usize,
+    /// Render wall time, seconds.
+    pub render_seconds: f64,
+    /// Bytes held by the density representation.
+    pub density_bytes: usize,
+    /// Camera-ray samples.
+    pub samples: u64,
+}
+
+/// Write `data.csv` of a cost study.
+pub(super) fn write_costs(path: &Path, rows: &[CostRow]) -> Result<()> {
+    let mut s = String::from("series,frames,render_seconds,density_bytes,samples\n");
+    for r in rows {
+        s.push_str(&format!(
+            "{},{},{},{},{}\n",
+            r.series, r.frames, r.render_seconds, r.density_bytes, r.samples
+        ));
+    }
+    io::write_atomic(path, |w| Ok(w.write_all(s.as_bytes())?))
+}
+
+/// Read a cost study's `data.csv` back.
+pub(super) fn read_costs(path: &Path) -> Result<Vec<CostRow>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    text.lines()
+        .skip(1)
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            anyhow::ensure!(c.len() == 5, "{}: bad line '{l}'", path.display());
+            Ok(CostRow {
+                series: c[0].into(),
+                frames: c[1].parse()?,
+                render_seconds: c[2].parse()?,
+                density_bytes: c[3].parse()?,
+                samples: c[4].parse()?,
+            })
+        })
+        .collect()
+}
+
+/// The fitted slopes of one series: seconds and MiB per frame.
+#[derive(Clone, Debug, Serialize)]
+pub(super) struct SeriesFit {
+    /// Series name.
+    pub series: String,
+    /// Render time against frames.
+    pub time: Option<LinearFit>,
+    /// Memory (MiB) against frames.
+    pub memory_mib: Option<LinearFit>,
+}
+
+const MIB: f64 = 1048576.0;
+
+/// Plot render time and memory against frames from `data.csv` of `dir`
+/// (`time.{png,svg}`, `memory.{png,svg}`, both on `costs.png`), each series
+/// with its least-squares slope printed, and return the fits.
+pub(super) fn plot_costs(dir: &Path, title: &str, x_label: &str) -> Result<Vec<SeriesFit>> {
+    let rows = read_costs(&dir.join("data.csv"))?;
+    let mut names: Vec<String> = vec![];
+    for r in &rows {
+        if !names.contains(&r.series) {
+            names.push(r.series.clone());
+        }
+    }
+    let mut time = Plot::new(format!("{title}: render time"), x_label, "render seconds")
+        .legend(LegendPosition::UpperLeft);
+    let mut memory = Plot::new(
+        format!("{title}: memory of the density"),
+        x_label,
+        "MiB held",
+    )
+    .legend(LegendPosition::UpperLeft);
+    let mut fits = vec![];
+    for (i, name) in names.iter().enumerate() {
+        let pts = |f: &dyn Fn(&CostRow) -> f64| -> Vec<(f64, f64)> {
+            rows.iter()
+                .filter(|r| &r.series == name)
+                .map(|r| (r.frames as f64, f(r)))
+                .collect()
+        };
+        let t = pts(&|r| r.render_seconds);
+        let m = pts(&|r| r.density_bytes as f64 / MIB);
+        let fit = SeriesFit {
+            series: name.clone(),
+            time: linear_fit(&t),
+            memory_mib: linear_fit(&m),
+        };
+        let color = PALETTE[i % PALETTE.len()];
+        let y = 0.08 + 0.07 * i as f64;
+        let slope = |f: Option<LinearFit>, unit: &str| {
+            f.map_or("no fit".into(), |f| format!("{:.4} {unit}/frame", f.slope))
+        };
+        time = time
+            .series(
+                Series::line(name, t)
+                    .styled(Style::LineMarkers)
+                    .colored(color),
+            )
+            .annotate(Annotation::at_fraction(
+                0.3,
+                y,
+                format!("{name}: slope {}", slope(fit.time, "s")),
+            ));
+        memory = memory
+            .series(
+                Series::line(name, m)
+                    .styled(Style::LineMarkers)
+                    .colored(color),
+            )
+            .annotate(Annotation::at_fraction(
+                0.3,
+                y,
+                format!("{name}: slope {}", slope(fit.memory_mib, "MiB")),
+            ));
+        fits.push(fit);
+    }
+    let [t_png, _] = time.write(&dir.join("time"))?;
+    let [m_png, _] = memory.write(&dir.join("memory"))?;
+    let imgs = [t_png, m_png]
+        .iter()
+        .map(|p| Ok(image::open(p)?.to_rgb8()))
+        .collect::<Result<Vec<_>>>()?;
+    io::write_png(&dir.join("costs.png"), &preview::side_by_side(&imgs, 0))?;
+    Ok(fits)
+}
