@@ -36,7 +36,7 @@ pub struct Study {
     pub expected: f64,
     /// What is refined, e.g. "Δx (CFL 0.4)", for tables and plot axes.
     pub refined: &'static str,
-    /// How the error is measured: "rms", or "mean |e|" where the function's
+    /// How the error is measured: "rms", or "mean abs" where the function's
     /// doc says why.
     pub norm: &'static str,
     /// Spacings, coarse to fine.
@@ -480,7 +480,7 @@ fn quasi_random_points(n: usize, lo: Vec3, size: Vec3) -> Vec<Vec3> {
 /// reproduced exactly, which makes the rates uneven around that level.)
 pub fn selma_to_gridless(map_res: &[usize]) -> Study {
     let mut study = Study::new("selma_to_gridless", 2.0, "map Δx (Δt fixed)");
-    study.norm = "mean |e|";
+    study.norm = "mean abs";
     // 8 cells deep, so that the coarsest map (16 across) is still 4 deep.
     let d = Domain::new(Vec3::ZERO, 1.0 / 32.0, [32, 32, 8]).expect("valid study domain");
     let cellular = |p: Vec3| {
