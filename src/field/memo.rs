@@ -63,13 +63,21 @@ impl VectorField for Memo {
 
     fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
         assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
+        let hit = LAST.with(|last| {
+            let e = last.borrow();
+            let hit = e.id == self.id && e.points == points;
+            if hit {
+                out.copy_from_slice(&e.images);
+            }
+            hit
+        });
+        if hit {
+            return;
+        }
+        // Evaluated outside the borrow: the inner map may hold memos itself.
+        self.inner.eval_batch(points, out);
         LAST.with(|last| {
             let mut e = last.borrow_mut();
-            if e.id == self.id && e.points == points {
-                out.copy_from_slice(&e.images);
-                return;
-            }
-            self.inner.eval_batch(points, out);
             e.id = self.id;
             e.points.clear();
             e.points.extend_from_slice(points);
@@ -117,5 +125,18 @@ mod tests {
         m.eval_batch(&b, &mut out);
         assert_eq!(calls.load(Ordering::Relaxed), 3);
         assert_eq!(out[1], Vec3::new(0.0, 2.0, 0.0));
+    }
+
+    #[test]
+    fn a_memo_of_a_memo_evaluates_without_reentering_its_cache() {
+        let calls = Arc::new(AtomicUsize::new(0));
+        let inner = memo(Arc::new(Doubling(calls.clone())));
+        let outer = Memo::new(inner);
+        let a = [Vec3::ONE];
+        let mut out = [Vec3::ZERO];
+        outer.eval_batch(&a, &mut out);
+        outer.eval_batch(&a, &mut out);
+        assert_eq!(out, [Vec3::splat(2.0)]);
+        assert_eq!(calls.load(Ordering::Relaxed), 1);
     }
 }
