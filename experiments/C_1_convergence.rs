@@ -22,7 +22,7 @@ use crate::advection::Backtrace;
 use crate::convergence::cases::{self, Sampling, Study};
 use crate::io::{self, manifest::Manifest, CsvLog};
 use crate::noise::curl::FdScheme;
-use crate::plot::{Annotation, Plot, Series, Style};
+use crate::plot::{Annotation, LegendPosition, Plot, Series, Style};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -204,6 +204,8 @@ fn plot_study(ctx: &Context, s: &Study, observed: f64) -> Result<()> {
         .y_range(lo / 1.5, hi * 1.5)
         .series(Series::line("measured", points).styled(Style::LineMarkers))
         .series(Series::line(format!("slope {}", s.expected), guide).styled(Style::Dashed))
+        // Errors fall toward small h: the lower right corner stays empty.
+        .legend(LegendPosition::LowerRight)
         .annotate(Annotation::at_fraction(
             0.05,
             0.08,
