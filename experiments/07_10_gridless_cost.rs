@@ -26,9 +26,7 @@ use std::time::Instant;
 
 use anyhow::Result;
 
-use super::sphere_wall_series::{
-    config, plot_costs, render_wall, study_size, write_costs, CostRow,
-};
+use super::sphere_wall_series::{config, plot_costs, study_size, write_costs, CostRow};
 use super::{Context, Experiment};
 use crate::io::{self, manifest::Manifest, preview};
 use crate::scenario::sphere_wall::{AdvectedWall, FlowHistory, GriddedWall, Wall};
@@ -65,14 +63,8 @@ fn run(ctx: &Context) -> Result<()> {
         }
         let state = AdvectedWall::gridless(&wall, Some(&gridded), &flow, k)?;
         for (series, div) in MARCHES {
-            let (img, stats) = render_wall(&state, &wall, &flow, div, (w, h))?;
-            rows.push(CostRow {
-                series: series.into(),
-                frames: k,
-                render_seconds: stats.seconds,
-                density_bytes: state.bytes(),
-                samples: stats.samples,
-            });
+            let (row, img) = CostRow::measure(series, k, &state, &wall, &flow, div, (w, h))?;
+            rows.push(row);
             if div > 1.0 {
                 strip.push(img);
             }

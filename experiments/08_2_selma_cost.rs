@@ -27,9 +27,7 @@ use std::time::Instant;
 
 use anyhow::Result;
 
-use super::sphere_wall_series::{
-    config, plot_costs, render_wall, study_size, write_costs, CostRow,
-};
+use super::sphere_wall_series::{config, plot_costs, study_size, write_costs, CostRow};
 use super::{Context, Experiment};
 use crate::io::{self, manifest::Manifest};
 use crate::scenario::sphere_wall::{AdvectedWall, FlowHistory, SelmaWall, Wall};
@@ -61,14 +59,8 @@ fn run(ctx: &Context) -> Result<()> {
     ];
     let mut rows = vec![];
     let mut measure = |series: &str, state: &AdvectedWall, n: usize| -> Result<()> {
-        let (_, stats) = render_wall(state, &wall, &flow, MARCH_DIV, (w, h))?;
-        rows.push(CostRow {
-            series: series.into(),
-            frames: n,
-            render_seconds: stats.seconds,
-            density_bytes: state.bytes(),
-            samples: stats.samples,
-        });
+        let (row, _) = CostRow::measure(series, n, state, &wall, &flow, MARCH_DIV, (w, h))?;
+        rows.push(row);
         Ok(())
     };
     for i in 0..=6 {

@@ -213,6 +213,30 @@ pub(super) struct CostRow {
     pub samples: u64,
 }
 
+impl CostRow {
+    /// Render `state` with march step `cell / march_div` and record what it
+    /// cost: the row, and the picture.
+    pub fn measure(
+        series: &str,
+        frames: usize,
+        state: &AdvectedWall,
+        wall: &Wall,
+        flow: &FlowHistory,
+        march_div: f32,
+        size: (u32, u32),
+    ) -> Result<(Self, RgbImage)> {
+        let (img, stats) = render_wall(state, wall, flow, march_div, size)?;
+        let row = Self {
+            series: series.into(),
+            frames,
+            render_seconds: stats.seconds,
+            density_bytes: state.bytes(),
+            samples: stats.samples,
+        };
+        Ok((row, img))
+    }
+}
+
 /// Write `data.csv` of a cost study.
 pub(super) fn write_costs(path: &Path, rows: &[CostRow]) -> Result<()> {
     let mut s = String::from("series,frames,render_seconds,density_bytes,samples\n");
