@@ -11,7 +11,7 @@
 //! realistically than value noise"; fast simulation noise shows its jumps at
 //! cell faces, smooth simulation noise its dead spots on lattice points.
 //!
-//! Run: `smokelab experiment N-3` (about 5 s on 2 cores at 512² per panel;
+//! Run: `smokelab experiment N-3` (about 5 s on 2 cores at 384² per panel;
 //! `--full` 1024², `--smoke` 96²).
 //!
 //! Writes `results/N-3/`: `fig3.png` (the three panels side by side, left to
@@ -85,7 +85,7 @@ fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
     let pixels = match ctx.size {
         Size::Smoke => 96,
-        Size::Default => 512,
+        Size::Default => 384,
         Size::Full => 1024,
     };
     let dimension = 0.2;
