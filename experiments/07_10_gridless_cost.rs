@@ -26,10 +26,10 @@ use std::time::Instant;
 
 use anyhow::Result;
 
-use super::sphere_wall_series::{config, plot_costs, study_size, write_costs, CostRow};
+use super::sphere_wall_series::{plot_costs, study_size, write_costs, CostRow, Setup};
 use super::{Context, Experiment};
 use crate::io::{self, manifest::Manifest, preview};
-use crate::scenario::sphere_wall::{AdvectedWall, FlowHistory, GriddedWall, Wall};
+use crate::scenario::sphere_wall::{AdvectedWall, GriddedWall};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -46,11 +46,8 @@ const MARCHES: [(&str, f32); 2] = [("march=cell", 1.0), ("march=cell/10", 10.0)]
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let config = config(ctx.size);
     let (w, h) = study_size(ctx.size);
-    let flow = FlowHistory::record(&config)?;
-    io::create_output_dir(&ctx.out)?;
-    let wall = Wall::new(&config);
+    let Setup { config, flow, wall } = Setup::new(ctx)?;
     let f = flow.frames();
     let mut gridded = GriddedWall::new(&wall, flow.domain);
     let mut rows = vec![];

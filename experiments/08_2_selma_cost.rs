@@ -27,10 +27,10 @@ use std::time::Instant;
 
 use anyhow::Result;
 
-use super::sphere_wall_series::{config, plot_costs, study_size, write_costs, CostRow};
+use super::sphere_wall_series::{plot_costs, study_size, write_costs, CostRow, Setup};
 use super::{Context, Experiment};
 use crate::io::{self, manifest::Manifest};
-use crate::scenario::sphere_wall::{AdvectedWall, FlowHistory, SelmaWall, Wall};
+use crate::scenario::sphere_wall::{AdvectedWall, SelmaWall};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -47,11 +47,8 @@ const MARCH_DIV: f32 = 10.0;
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let config = config(ctx.size);
     let (w, h) = study_size(ctx.size);
-    let flow = FlowHistory::record(&config)?;
-    io::create_output_dir(&ctx.out)?;
-    let wall = Wall::new(&config);
+    let Setup { config, flow, wall } = Setup::new(ctx)?;
     let f = flow.frames();
     let mut selma = [
         ("selma", SelmaWall::new(&flow, None)?),

@@ -44,6 +44,26 @@ pub(super) fn config(size: Size) -> SphereWallConfig {
     }
 }
 
+/// What every sphere-wall experiment starts from: the run size's
+/// configuration, the recorded flow and the unadvected wall. The flow is
+/// recorded (and the configuration checked) before the output folder is
+/// created, so a refused input writes nothing.
+pub(super) struct Setup {
+    pub config: SphereWallConfig,
+    pub flow: FlowHistory,
+    pub wall: Wall,
+}
+
+impl Setup {
+    pub fn new(ctx: &Context) -> Result<Self> {
+        let config = config(ctx.size);
+        let flow = FlowHistory::record(&config)?;
+        io::create_output_dir(&ctx.out)?;
+        let wall = Wall::new(&config);
+        Ok(Self { config, flow, wall })
+    }
+}
+
 /// Image size of the one-picture experiments.
 pub(super) fn picture_size(size: Size) -> (u32, u32) {
     match size {
@@ -148,11 +168,8 @@ fn mass(state: &AdvectedWall, flow: &FlowHistory) -> f64 {
 /// density bytes, mass kept) and `manifest.json`.
 pub(super) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Result<()> {
     let start = Instant::now();
-    let config = config(ctx.size);
     let (w, h) = picture_size(ctx.size);
-    let flow = FlowHistory::record(&config)?;
-    io::create_output_dir(&ctx.out)?;
-    let wall = Wall::new(&config);
+    let Setup { config, flow, wall } = Setup::new(ctx)?;
     let f = flow.frames();
     let initial = AdvectedWall::gridless(&wall, None, &flow, 0)?;
     let t = Instant::now();
