@@ -22,23 +22,23 @@ use anyhow::{Context as _, Result};
 use image::RgbImage;
 use serde::Serialize;
 
-use super::Context;
-use crate::density::probe;
-use crate::density::{DensityMode, DensityModel};
-use crate::field::Scalar;
-use crate::grid::ScalarGrid;
-use crate::io::{self, preview};
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
-use crate::render::camera::Camera;
-use crate::render::output::{self, Display};
-use crate::render::phase::Phase;
-use crate::render::{look, render, RenderSettings, Scene};
+use crate::registry::Context;
 use crate::run::{self, RunOptions, SaveFrames};
-use crate::scenario::hot_cold::HotColdConfig;
-use crate::simulation::Simulation;
+use smokelab::density::probe;
+use smokelab::density::{DensityMode, DensityModel};
+use smokelab::field::Scalar;
+use smokelab::grid::ScalarGrid;
+use smokelab::io::{self, preview};
+use smokelab::render::camera::Camera;
+use smokelab::render::output::{self, Display};
+use smokelab::render::phase::Phase;
+use smokelab::render::{look, render, RenderSettings, Scene};
+use smokelab::scenario::hot_cold::HotColdConfig;
+use smokelab::simulation::Simulation;
 
 /// One density mode to run.
-pub(super) struct ModeRun {
+pub(crate) struct ModeRun {
     /// Folder and legend name (`gridded`, `gridless`, `selma`, `selma-fine`).
     pub label: String,
     /// The hot/cold configuration, density mode included.
@@ -85,7 +85,7 @@ impl ModeRun {
 
 /// Picture sizes.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Look {
+pub(crate) struct Look {
     /// Width of a slice in pixels.
     pub slice: u32,
     /// Side of a square render in pixels.
@@ -93,7 +93,7 @@ pub(super) struct Look {
 }
 
 /// The pictures of one frame.
-pub(super) struct Captured {
+pub(crate) struct Captured {
     /// Mid-plane slice of the fields.
     pub slice: RgbImage,
     /// Ray-marched render of the 2× sampling.
@@ -101,7 +101,7 @@ pub(super) struct Captured {
 }
 
 /// What one mode's run produced.
-pub(super) struct ModeResult {
+pub(crate) struct ModeResult {
     /// Legend name.
     pub label: String,
     /// The run's folder.
@@ -117,7 +117,7 @@ pub(super) struct ModeResult {
 }
 
 /// Mid-plane slice of every gas of `sim`.
-pub(super) fn slice(sim: &Simulation, width: u32) -> RgbImage {
+pub(crate) fn slice(sim: &Simulation, width: u32) -> RgbImage {
     let fields: Vec<Scalar> = sim.gases.iter().map(|g| g.model.field()).collect();
     let layers: Vec<preview::FieldLayer> = sim
         .gases
@@ -136,7 +136,7 @@ pub(super) fn slice(sim: &Simulation, width: u32) -> RgbImage {
 }
 
 /// Ray-marched render of every gas of `sim`, sampled at 2× (see the module docs).
-pub(super) fn render_fine(sim: &Simulation, side: u32) -> Result<RgbImage> {
+pub(crate) fn render_fine(sim: &Simulation, side: u32) -> Result<RgbImage> {
     let fine = sim.domain().refined(probe::REFINE);
     let volumes = sim
         .gases
@@ -165,7 +165,7 @@ pub(super) fn render_fine(sim: &Simulation, side: u32) -> Result<RgbImage> {
 }
 
 /// Run one mode into `<ctx.out>/<label>/`, capturing `capture` frames.
-pub(super) fn run_mode(
+pub(crate) fn run_mode(
     ctx: &Context,
     mode: &ModeRun,
     capture: &[usize],
@@ -209,7 +209,7 @@ pub(super) fn run_mode(
 
 /// Rows of images stacked, each row side by side, with `gap`-pixel dark
 /// separators.
-pub(super) fn grid(rows: &[Vec<RgbImage>], gap: u32) -> RgbImage {
+pub(crate) fn grid(rows: &[Vec<RgbImage>], gap: u32) -> RgbImage {
     sheet(rows, gap, [40, 40, 40])
 }
 
@@ -285,7 +285,7 @@ fn color(label: &str) -> plotters::style::RGBColor {
 /// energy, time per step and memory, plus `metrics.png`, all seven on one
 /// sheet. Reads the
 /// runs' `metrics.csv`, so the plots can be redrawn without simulating.
-pub(super) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &str) -> Result<()> {
+pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &str) -> Result<()> {
     let tables: Vec<(String, Table)> = results
         .iter()
         .map(|(l, dir)| Ok((l.clone(), Table::read(&dir.join("metrics.csv"))?)))
@@ -436,7 +436,7 @@ pub(super) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
 
 /// One line of `summary.csv`.
 #[derive(Clone, Debug, Serialize)]
-pub(super) struct SummaryRow {
+pub(crate) struct SummaryRow {
     /// Mode label.
     pub mode: String,
     /// Hot mass at the last frame, 2× sampling.
@@ -466,7 +466,7 @@ pub(super) struct SummaryRow {
 }
 
 /// Summarise each mode from its `metrics.csv`; write `<out>/summary.csv`.
-pub(super) fn summarise(out: &Path, results: &[ModeResult]) -> Result<Vec<SummaryRow>> {
+pub(crate) fn summarise(out: &Path, results: &[ModeResult]) -> Result<Vec<SummaryRow>> {
     let mut rows = vec![];
     for r in results {
         let t = Table::read(&r.dir.join("metrics.csv"))?;

@@ -17,21 +17,22 @@ use glam::Vec3;
 use image::RgbImage;
 use serde::Serialize;
 
-use super::{Context, Size};
-use crate::density::probe;
-use crate::domain::Domain;
-use crate::fit::{linear_fit, LinearFit};
-use crate::io::{self, manifest::Manifest, preview};
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
-use crate::render::camera::Camera;
-use crate::render::output::{self, Display};
-use crate::render::{render, RenderSettings, RenderStats};
-use crate::scenario::sphere_wall::{
+use crate::registry::{Context, Size};
+use smokelab::density::probe;
+use smokelab::domain::Domain;
+use smokelab::fit::{linear_fit, LinearFit};
+use smokelab::io::{self, manifest::Manifest, preview};
+use smokelab::render::camera::Camera;
+use smokelab::render::output::{self, Display};
+use smokelab::render::phase::Phase;
+use smokelab::render::{look, render, RenderSettings, RenderStats, Scene};
+use smokelab::scenario::sphere_wall::{
     AdvectedWall, FlowHistory, GriddedWall, SelmaWall, SphereWallConfig, Wall,
 };
 
 /// The wall and flow of a run size.
-pub(super) fn config(size: Size) -> SphereWallConfig {
+pub(crate) fn config(size: Size) -> SphereWallConfig {
     let (res, frames) = match size {
         Size::Smoke => (16, 6),
         Size::Default => (32, 30),
@@ -48,7 +49,7 @@ pub(super) fn config(size: Size) -> SphereWallConfig {
 /// configuration, the recorded flow and the unadvected wall. The flow is
 /// recorded (and the configuration checked) before the output folder is
 /// created, so a refused input writes nothing.
-pub(super) struct Setup {
+pub(crate) struct Setup {
     pub config: SphereWallConfig,
     pub flow: FlowHistory,
     pub wall: Wall,
@@ -65,7 +66,7 @@ impl Setup {
 }
 
 /// Image size of the one-picture experiments.
-pub(super) fn picture_size(size: Size) -> (u32, u32) {
+pub(crate) fn picture_size(size: Size) -> (u32, u32) {
     match size {
         Size::Smoke => (64, 48),
         Size::Default => (320, 240),
@@ -74,7 +75,7 @@ pub(super) fn picture_size(size: Size) -> (u32, u32) {
 }
 
 /// Image size of the cost studies (many renders each).
-pub(super) fn study_size(size: Size) -> (u32, u32) {
+pub(crate) fn study_size(size: Size) -> (u32, u32) {
     match size {
         Size::Smoke => (64, 48),
         Size::Default => (160, 120),
@@ -85,7 +86,7 @@ pub(super) fn study_size(size: Size) -> (u32, u32) {
 /// How one picture holds the wall over the `F` recorded frames.
 #[derive(Clone, Copy, Debug, Serialize)]
 #[serde(rename_all = "kebab-case")]
-pub(super) enum Holding {
+pub(crate) enum Holding {
     /// Gridded for `F − k` frames, then `k` gridless (eqs 7.1–7.4).
     Gridless {
         /// Gridless frames `k` (`usize::MAX`: all `F`).
@@ -126,16 +127,48 @@ impl Holding {
     }
 }
 
+/// Display colours of the rows, top to bottom (cycled past six).
+const ROW_COLORS: [Vec3; 6] = [
+    Vec3::new(0.9, 0.08, 0.05),
+    Vec3::new(0.95, 0.45, 0.04),
+    Vec3::new(0.9, 0.85, 0.08),
+    Vec3::new(0.1, 0.75, 0.15),
+    Vec3::new(0.08, 0.35, 0.95),
+    Vec3::new(0.6, 0.12, 0.85),
+];
+
+/// Extinction per unit density of the wall's render.
+const KAPPA: f32 = 4.0;
+
+/// The rows of `state` as coloured smoke volumes in the box `bounds`, lit by
+/// the default key light.
+fn wall_scene(state: &AdvectedWall, bounds: Domain) -> Scene {
+    let volumes = state
+        .rows
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let color = ROW_COLORS[i % ROW_COLORS.len()];
+            look::smoke(format!("row{i}"), r.clone(), color, KAPPA, look::GLOW)
+        })
+        .collect();
+    Scene {
+        bounds,
+        volumes,
+        lights: vec![look::key_light(&bounds)],
+        phase: Phase::Isotropic,
+    }
+}
+
 /// Render the wall with march step `cell / march_div`.
-pub(super) fn render_wall(
+pub(crate) fn render_wall(
     state: &AdvectedWall,
-    wall: &Wall,
     flow: &FlowHistory,
     march_div: f32,
     (width, height): (u32, u32),
 ) -> Result<(RgbImage, RenderStats)> {
     let d = flow.domain;
-    let scene = state.scene(wall, d);
+    let scene = wall_scene(state, d);
     // Frame the wall's neighbourhood: 90 % of the box across, a slab of
     // 30 % of it in depth around the wall's plane.
     let size = d.size();
@@ -166,7 +199,7 @@ fn mass(state: &AdvectedWall, flow: &FlowHistory) -> f64 {
 /// `initial_final.png` (fig 7.3 beside the result), `data.csv` (one row:
 /// frames gridded and gridless, march step, render seconds and samples,
 /// density bytes, mass kept) and `manifest.json`.
-pub(super) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Result<()> {
+pub(crate) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Result<()> {
     let start = Instant::now();
     let (w, h) = picture_size(ctx.size);
     let Setup { config, flow, wall } = Setup::new(ctx)?;
@@ -175,8 +208,8 @@ pub(super) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Re
     let t = Instant::now();
     let state = holding.advect(&wall, &flow)?;
     let setup_seconds = t.elapsed().as_secs_f64();
-    let (img, stats) = render_wall(&state, &wall, &flow, march_div, (w, h))?;
-    let (img0, _) = render_wall(&initial, &wall, &flow, 10.0, (w, h))?;
+    let (img, stats) = render_wall(&state, &flow, march_div, (w, h))?;
+    let (img0, _) = render_wall(&initial, &flow, 10.0, (w, h))?;
     io::write_png(&ctx.out.join("render.png"), &img)?;
     io::write_png(
         &ctx.out.join("initial_final.png"),
@@ -217,7 +250,7 @@ pub(super) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Re
 
 /// One measured render of a cost study.
 #[derive(Clone, Debug)]
-pub(super) struct CostRow {
+pub(crate) struct CostRow {
     /// Series name (`march=cell`, `selma-fine`, …).
     pub series: String,
     /// The x of the plots: gridless frames (07-10) or advected frames (08-2).
@@ -237,12 +270,11 @@ impl CostRow {
         series: &str,
         frames: usize,
         state: &AdvectedWall,
-        wall: &Wall,
         flow: &FlowHistory,
         march_div: f32,
         size: (u32, u32),
     ) -> Result<(Self, RgbImage)> {
-        let (img, stats) = render_wall(state, wall, flow, march_div, size)?;
+        let (img, stats) = render_wall(state, flow, march_div, size)?;
         let row = Self {
             series: series.into(),
             frames,
@@ -255,7 +287,7 @@ impl CostRow {
 }
 
 /// Write `data.csv` of a cost study.
-pub(super) fn write_costs(path: &Path, rows: &[CostRow]) -> Result<()> {
+pub(crate) fn write_costs(path: &Path, rows: &[CostRow]) -> Result<()> {
     let mut s = String::from("series,frames,render_seconds,density_bytes,samples\n");
     for r in rows {
         s.push_str(&format!(
@@ -267,7 +299,7 @@ pub(super) fn write_costs(path: &Path, rows: &[CostRow]) -> Result<()> {
 }
 
 /// Read a cost study's `data.csv` back.
-pub(super) fn read_costs(path: &Path) -> Result<Vec<CostRow>> {
+pub(crate) fn read_costs(path: &Path) -> Result<Vec<CostRow>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     text.lines()
@@ -288,7 +320,7 @@ pub(super) fn read_costs(path: &Path) -> Result<Vec<CostRow>> {
 
 /// The fitted slopes of one series: seconds and MiB per frame.
 #[derive(Clone, Debug, Serialize)]
-pub(super) struct SeriesFit {
+pub(crate) struct SeriesFit {
     /// Series name.
     pub series: String,
     /// Render time against frames.
@@ -302,7 +334,7 @@ const MIB: f64 = 1048576.0;
 /// Plot render time and memory against frames from `data.csv` of `dir`
 /// (`time.{png,svg}`, `memory.{png,svg}`, both on `costs.png`), each series
 /// with its least-squares slope printed, and return the fits.
-pub(super) fn plot_costs(dir: &Path, title: &str, x_label: &str) -> Result<Vec<SeriesFit>> {
+pub(crate) fn plot_costs(dir: &Path, title: &str, x_label: &str) -> Result<Vec<SeriesFit>> {
     let rows = read_costs(&dir.join("data.csv"))?;
     let mut names: Vec<String> = vec![];
     for r in &rows {

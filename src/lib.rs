@@ -5,29 +5,12 @@
 //! field through interpolation, and the solver's step reads like the notes'
 //! FELT script (advect, force, project).
 //!
-//! Modules in dependency order:
-//! - [`error`] — user-facing input errors (exit code 2);
-//! - [`domain`] — the box, cell size and index ↔ world conventions;
-//! - [`field`] — scalar and vector fields, batch evaluation, combinators;
-//! - [`grid`] — caches: trilinear `cacheread`, parallel `cachewrite`;
-//! - [`advection`] — semi-Lagrangian (eqs 6.4–6.5) and QUICK;
-//! - [`projection`] — FFT divergence-free projection with exact viscosity;
-//! - [`metrics`] — divergence, mirror symmetry;
-//! - [`boundary`] — level-set obstacles, reflecting and sticky rules (eqs 6.6–6.7);
-//! - [`convergence`] — observed order of accuracy for convergence tests;
-//! - [`density`] — gridded, gridless and SELMA densities (§6.2, ch. 7–8);
-//! - [`noise`] — divergence-free noise velocities (simulation, curl, bitangent, spectral);
-//! - [`timing`] — stage timers, peak memory;
-//! - [`fit`] — least-squares straight lines (cost per frame);
-//! - [`plot`] — line plots (PNG + SVG) for the experiments;
-//! - [`simulation`] — the time step;
-//! - [`scenario`] — hot/cold (§6.1.1), slab in a box (§6.3, fig 6.6);
-//! - [`io`] — atomic `.npy`/PNG/JSON/CSV writers, manifests, previews;
-//! - [`render`] — the volume ray marcher (appendix A), EXR/PNG output;
-//! - [`run`] — driving a simulation through its frames;
-//! - [`experiments`] — numbered reproductions of the notes' figures;
-//! - [`paper`] — `paper/paper.md` refreshed from `results/`, built to HTML;
-//! - [`cli`] — the `smokelab` command line.
+//! The library holds the science only; the `smokelab` command line, the run
+//! driver, the numbered experiments, plots and the paper live in the
+//! application crate under `experiments/` (see `ARCHITECTURE.md`).
+//!
+//! The modules below are declared in dependency order: each uses only those
+//! above it.
 //!
 //! ```
 //! use smokelab::scenario::hot_cold::HotColdConfig;
@@ -40,26 +23,19 @@
 //! assert!(div.max <= 1e-4 * sim.velocity.max_norm() / sim.domain().cell);
 //! ```
 
-pub mod advection;
-pub mod boundary;
-pub mod cli;
-pub mod convergence;
-pub mod density;
-pub mod domain;
 pub mod error;
-#[path = "../experiments/mod.rs"]
-pub mod experiments;
+pub mod domain;
 pub mod field;
-pub mod fit;
 pub mod grid;
-pub mod io;
-pub mod metrics;
-pub mod noise;
-pub mod paper;
-pub mod plot;
-pub mod projection;
-pub mod render;
-pub mod run;
-pub mod scenario;
-pub mod simulation;
+pub mod fit;
 pub mod timing;
+pub mod io;
+pub mod projection;
+pub mod advection;
+pub mod metrics;
+pub mod boundary;
+pub mod density;
+pub mod noise;
+pub mod render;
+pub mod simulation;
+pub mod scenario;

@@ -2,9 +2,9 @@
 
 use glam::Vec3;
 use smokelab::advection::{advect_scalar, Backtrace};
-use smokelab::convergence::observed_order;
 use smokelab::domain::Domain;
 use smokelab::field::ops;
+use smokelab::fit::observed_order;
 use smokelab::grid::{ScalarGrid, VectorGrid};
 use smokelab::projection::Projection;
 

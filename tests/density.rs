@@ -11,11 +11,11 @@ use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use smokelab::advection::{self, departure_point, Backtrace, Departures};
-use smokelab::convergence::observed_order;
 use smokelab::density::probe::DensityProbe;
 use smokelab::density::{DensityMode, DensityModel, DensityOptions, GridlessField, StepInput};
 use smokelab::domain::Domain;
 use smokelab::field::{ops, Scalar, ScalarField, VectorField};
+use smokelab::fit::observed_order;
 use smokelab::grid::{ScalarGrid, VectorGrid};
 use smokelab::projection::Projection;
 use smokelab::scenario::hot_cold::HotColdConfig;
@@ -438,126 +438,5 @@ fn every_mode_runs_and_its_field_snapshot_matches_its_cell_centres() {
         let v0 = eval(&*before, &p);
         sim.step();
         assert_eq!(eval(&*before, &p), v0, "{mode}: snapshot changed");
-    }
-}
-
-#[test]
-fn a_gridless_run_too_big_for_memory_is_refused_with_its_estimate() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = |args: &[&str]| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_smokelab"))
-            .args(args)
-            .current_dir(dir.path())
-            .output()
-            .unwrap()
-    };
-    // 64³ × 10⁶ steps: 12 MB per stored velocity grid, about 11 TiB in all.
-    let o = run(&[
-        "run",
-        "hot-cold",
-        "--density",
-        "gridless",
-        "--res",
-        "64",
-        "--frames",
-        "1000000",
-        "--out",
-        "out",
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("GiB") && err.contains("one velocity grid per step"),
-        "{err}"
-    );
-    assert!(err.contains("--force"), "{err}");
-    assert!(!dir.path().join("out").exists());
-    // The same run gridded fits.
-    let cfg = HotColdConfig {
-        res: 64,
-        frames: 1_000_000,
-        ..Default::default()
-    };
-    assert!(cfg.validate().is_ok());
-    // Options that make no sense are refused too.
-    for (args, needle) in [
-        (
-            &["run", "hot-cold", "--density", "gridded", "--map-res", "32"][..],
-            "map_res 32",
-        ),
-        (
-            &["run", "hot-cold", "--density", "selma", "--map-res", "2"][..],
-            "map-res 2",
-        ),
-        (
-            &["run", "hot-cold", "--metrics-every", "0"][..],
-            "metrics_every is 0",
-        ),
-        (
-            &[
-                "run",
-                "hot-cold",
-                "--density",
-                "selma",
-                "--selma-remap",
-                "-1",
-            ][..],
-            "selma_remap is -1",
-        ),
-        (&["run", "hot-cold", "--density", "fluffy"][..], "fluffy"),
-    ] {
-        let mut a = args.to_vec();
-        a.extend(["--out", "out"]);
-        let o = run(&a);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains(needle), "{args:?}: {err}");
-        assert!(!dir.path().join("out").exists());
-    }
-}
-
-#[test]
-fn density_experiments_run_at_smoke_size_and_write_their_figures() {
-    let dir = tempfile::tempdir().unwrap();
-    for (id, figures) in [
-        (
-            "06-3",
-            &["sequence.png", "frame.png", "frame_render.png"][..],
-        ),
-        (
-            "06-5",
-            &["side_by_side.png", "side_by_side_render.png", "final.png"][..],
-        ),
-    ] {
-        let out = dir.path().join(id);
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_smokelab"))
-            .args(["experiment", id, "--smoke", "--quiet", "--out"])
-            .arg(&out)
-            .output()
-            .unwrap();
-        assert!(
-            o.status.success(),
-            "{id}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        let common = [
-            "metrics.png",
-            "metrics_mass.svg",
-            "metrics_symmetry.png",
-            "metrics_memory.svg",
-            "summary.csv",
-            "manifest.json",
-            "gridless/metrics.csv",
-        ];
-        for f in figures.iter().chain(&common) {
-            assert!(out.join(f).is_file(), "{id}: no {f}");
-        }
-        let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
-        for mode in ["gridded", "gridless", "selma"] {
-            assert!(
-                summary.lines().any(|l| l.starts_with(mode)),
-                "{id}: {summary}"
-            );
-        }
     }
 }

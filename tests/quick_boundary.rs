@@ -3,9 +3,9 @@
 
 use glam::Vec3;
 use smokelab::advection::{self, quick, Backtrace, Limiter, QuickOptions};
-use smokelab::convergence::observed_order;
 use smokelab::domain::Domain;
 use smokelab::field::{ops, ScalarField};
+use smokelab::fit::observed_order;
 use smokelab::grid::{ScalarGrid, VectorGrid};
 
 /// A smooth periodic profile on the unit square (constant along z).
@@ -492,140 +492,6 @@ fn boundary_projection_interplay_table() {
             );
         }
     }
-}
-
-fn smokelab(args: &[&str], cwd: &std::path::Path) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_smokelab"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("run smokelab")
-}
-
-#[test]
-fn cli_rejects_bad_boundary_input_and_runs_slab_box() {
-    let dir = tempfile::tempdir().unwrap();
-    for (args, needle) in [
-        (
-            &["run", "slab-box", "--boundary", "sticky", "--alpha", "1.5"][..],
-            "alpha is 1.5",
-        ),
-        (&["run", "hot-cold", "--alpha", "0.5"][..], "slab-box only"),
-        (&["run", "slab-box", "--res", "20"][..], "wall is 0.8"),
-        (
-            &["run", "slab-box", "--boundary", "sideways"][..],
-            "sideways",
-        ),
-        (&["run", "hot-cold", "--advection", "fast"][..], "fast"),
-    ] {
-        let mut full = args.to_vec();
-        full.extend(["--out", "bad"]);
-        let o = smokelab(&full, dir.path());
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains(needle), "{args:?}: {err}");
-        assert!(!dir.path().join("bad").exists());
-    }
-    let o = smokelab(
-        &[
-            "run",
-            "slab-box",
-            "--res",
-            "26",
-            "--frames",
-            "3",
-            "--save-every",
-            "3",
-            "--boundary",
-            "sticky",
-            "--alpha",
-            "0.5",
-            "--out",
-            "r",
-            "--quiet",
-        ],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r = dir.path().join("r");
-    for f in [
-        "density_0003.npy",
-        "vel_0003.npy",
-        "obstacle.npy",
-        "preview_0003.png",
-        "metrics.csv",
-        "manifest.json",
-    ] {
-        assert!(r.join(f).is_file(), "missing {f}");
-    }
-    let obstacle: ndarray::Array3<f32> = ndarray_npy::read_npy(r.join("obstacle.npy")).unwrap();
-    assert_eq!(obstacle.dim(), (26, 26, 26));
-    assert!(
-        obstacle[[0, 0, 0]] > 0.0 && obstacle[[13, 13, 13]] < 0.0,
-        "walls positive, centre fluid"
-    );
-    let csv = std::fs::read_to_string(r.join("metrics.csv")).unwrap();
-    let header = csv.lines().next().unwrap();
-    for c in [
-        "div_fluid_rms",
-        "rim_inward_rms",
-        "obstacle_fraction",
-        "substeps",
-    ] {
-        assert!(header.contains(c), "metrics.csv lacks {c}: {header}");
-    }
-}
-
-#[test]
-fn cli_refuses_a_quick_step_beyond_the_cfl_bound_when_substeps_are_off() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(
-        &[
-            "run",
-            "hot-cold",
-            "--advection",
-            "quick",
-            "--no-substeps",
-            "--res",
-            "12",
-            "--frames",
-            "3",
-            "--dt",
-            "20",
-            "--out",
-            "r",
-            "--quiet",
-        ],
-        dir.path(),
-    );
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains("sub-stepping is disabled") && err.contains("step 2"),
-        "{err}"
-    );
-}
-
-#[test]
-fn experiment_06_6_smoke_writes_figure_and_data() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(
-        &["experiment", "06-6", "--smoke", "--quiet", "--out", "e"],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let e = dir.path().join("e");
-    for f in [
-        "fig_6_6.png",
-        "data.csv",
-        "quick-reflect/metrics.csv",
-        "quick-sticky/manifest.json",
-        "sl-reflect/obstacle.npy",
-    ] {
-        assert!(e.join(f).is_file(), "missing {f}");
-    }
-    let data = std::fs::read_to_string(e.join("data.csv")).unwrap();
-    assert_eq!(data.lines().count(), 5, "{data}");
 }
 
 #[test]

@@ -27,7 +27,8 @@ pub use semi_lagrangian::{
 };
 
 /// How the departure point `x − ∫u dt` of a semi-Lagrangian step is traced.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum Backtrace {
     /// One Euler step, `x − Δt u(x)`: first order in Δt.
@@ -45,7 +46,8 @@ impl Backtrace {
 }
 
 /// The advection scheme for velocity and densities.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum Scheme {
     /// Semi-Lagrangian with trilinear interpolation (eqs 6.4–6.5).

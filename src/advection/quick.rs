@@ -89,7 +89,8 @@ pub const DEFAULT_MAX_COURANT: f32 = 1.0;
 pub const MAX_SUBSTEPS: usize = 1000;
 
 /// Face-value limiter for QUICK.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum Limiter {
     /// Plain QUICK (over- and undershoots near sharp edges).

@@ -59,7 +59,8 @@ pub use level_set::{
 };
 
 /// What happens to fluid flowing into an obstacle.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum BoundaryRule {
     /// Eq 6.6: the inward normal velocity is reversed.

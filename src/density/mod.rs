@@ -48,7 +48,8 @@ pub use gridless::{Gridless, GridlessField, GridlessMap};
 pub use selma::{Selma, SelmaField, SelmaMap};
 
 /// How the density of every gas is held.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum DensityMode {
     /// Sampled onto the velocity grid every step (eq 6.4).

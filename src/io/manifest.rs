@@ -36,31 +36,18 @@ impl Machine {
     }
 }
 
-/// The git commit of the working tree, with `-dirty` if it has changes.
-pub fn git_commit() -> String {
-    let run = |args: &[&str]| {
-        std::process::Command::new("git")
-            .args(args)
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-    };
-    match run(&["rev-parse", "HEAD"]) {
-        Some(c) => match run(&["status", "--porcelain", "--untracked-files=no"]) {
-            Some(s) if !s.is_empty() => format!("{c}-dirty"),
-            _ => c,
-        },
-        None => "unknown".into(),
-    }
-}
+/// The git commit this library was built from, with `-dirty` when tracked
+/// files differed from it (recorded by `build.rs`; `unknown` outside a git
+/// checkout). Unlike asking git at run time, this names the code that ran,
+/// wherever the run is started.
+pub const BUILD_COMMIT: &str = env!("SMOKELAB_COMMIT");
 
 /// The manifest written beside every run's outputs.
 #[derive(Clone, Debug, Serialize)]
 pub struct Manifest<C: Serialize> {
     /// smokelab version.
     pub version: &'static str,
-    /// git commit (see [`git_commit`]).
+    /// git commit of the build (see [`BUILD_COMMIT`]).
     pub commit: String,
     /// Command line that produced the run.
     pub command: String,
@@ -83,7 +70,7 @@ impl<C: Serialize> Manifest<C> {
     pub fn new(config: C, seed: u64, wall_seconds: f64, extra: serde_json::Value) -> Self {
         Self {
             version: env!("CARGO_PKG_VERSION"),
-            commit: git_commit(),
+            commit: BUILD_COMMIT.to_string(),
             command: std::env::args().collect::<Vec<_>>().join(" "),
             config,
             seed,

@@ -101,7 +101,8 @@ impl VectorField for Curl2 {
 }
 
 /// A finite-difference rule for `∂_a N`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum FdScheme {
     /// `(N(x) − N(x − h e_a)) / h`, as in `001_…`; O(h).

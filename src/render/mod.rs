@@ -12,9 +12,7 @@
 //! - [`lights`] — point lights and their transmissivity grids (A.4–A.7);
 //! - [`march`] — the ray march (A.22–A.29);
 //! - [`output`] — EXR (linear, premultiplied) and sRGB PNG previews;
-//! - [`look`] — the default look of smoke renders (colours, light, exposure);
-//! - [`frames`] — rendering a simulation's frames (`run --render`);
-//! - [`command`] — `smokelab render` of saved volumes.
+//! - [`look`] — the default look of smoke renders (colours, light, exposure).
 //!
 //! ```
 //! use glam::Vec3;
@@ -41,8 +39,6 @@
 //! ```
 
 pub mod camera;
-pub mod command;
-pub mod frames;
 pub mod lights;
 pub mod look;
 pub mod march;

@@ -17,7 +17,8 @@ use super::Image;
 use crate::io::write_atomic;
 
 /// Sample precision of EXR channels.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 pub enum ExrPrecision {
     /// 16-bit half floats (the usual choice for beauty renders).
     #[default]

@@ -7,7 +7,8 @@ pub mod sphere_wall;
 use serde::{Deserialize, Serialize};
 
 /// The scenarios `smokelab run` knows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum ScenarioKind {
     /// Hot gas rising from below, cold gas sinking from above (§6.1.1, figs 6.1–6.2).

@@ -41,9 +41,6 @@ use crate::domain::Domain;
 use crate::error::InputError;
 use crate::field::{memo, ops, Scalar, ScalarField};
 use crate::grid::{ScalarGrid, VectorGrid};
-use crate::render::look;
-use crate::render::phase::Phase;
-use crate::render::Scene;
 use crate::scenario::hot_cold::HotColdConfig;
 
 /// Parameters of the sphere wall and of the flow that moves it.
@@ -88,19 +85,6 @@ impl Default for SphereWallConfig {
         }
     }
 }
-
-/// Display colours of the rows, top to bottom (cycled past six).
-pub const ROW_COLORS: [Vec3; 6] = [
-    Vec3::new(0.9, 0.08, 0.05),
-    Vec3::new(0.95, 0.45, 0.04),
-    Vec3::new(0.9, 0.85, 0.08),
-    Vec3::new(0.1, 0.75, 0.15),
-    Vec3::new(0.08, 0.35, 0.95),
-    Vec3::new(0.6, 0.12, 0.85),
-];
-
-/// Extinction per unit density of the wall's render.
-pub const KAPPA: f32 = 4.0;
 
 impl SphereWallConfig {
     /// Time step of the recorded frames.
@@ -247,8 +231,6 @@ impl ScalarField for BallRow {
 pub struct Wall {
     /// Row densities.
     pub rows: Vec<Scalar>,
-    /// Row display colours.
-    pub colors: Vec<Vec3>,
 }
 
 impl Wall {
@@ -269,10 +251,7 @@ impl Wall {
                 }) as Scalar
             })
             .collect();
-        let colors = (0..config.rows)
-            .map(|i| ROW_COLORS[i % ROW_COLORS.len()])
-            .collect();
-        Self { rows, colors }
+        Self { rows }
     }
 }
 
@@ -440,24 +419,6 @@ impl AdvectedWall {
     /// Bytes held, each allocation once.
     pub fn bytes(&self) -> usize {
         total_bytes(self.buffers.iter().copied())
-    }
-
-    /// The rows as coloured smoke volumes in the box `bounds`, lit by the
-    /// default key light.
-    pub fn scene(&self, wall: &Wall, bounds: Domain) -> Scene {
-        let volumes = self
-            .rows
-            .iter()
-            .zip(&wall.colors)
-            .enumerate()
-            .map(|(i, (r, &c))| look::smoke(format!("row{i}"), r.clone(), c, KAPPA, look::GLOW))
-            .collect();
-        Scene {
-            bounds,
-            volumes,
-            lights: vec![look::key_light(&bounds)],
-            phase: Phase::Isotropic,
-        }
     }
 }
 

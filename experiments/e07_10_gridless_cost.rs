@@ -1,0 +1,89 @@
+//! # 07-10 — render time and memory against gridless frames (fig 7.10)
+//!
+//! Reproduces the notes' figure 7.10 (§7.3): the sphere wall held gridded
+//! for `F − k` frames and gridless for the last `k` (eqs 7.1–7.4), for
+//! `k = 0, F/6, …, F`, rendered with a march step of one velocity cell and
+//! of a tenth of one. For each: the render's wall time and the bytes held
+//! by the density representation when it is rendered — the row grids
+//! (one per row, velocity resolution) plus the `k` stored velocity grids of
+//! the gridless chain, each allocation once. (Here `k = F` composes the
+//! frame-0 grids, so every point holds the same row grids; 07-8 composes
+//! the analytic wall.) The notes expect both to grow linearly in `k`, time
+//! ten times faster with the ten-times finer march.
+//!
+//! `data.csv` is written first; `time.{png,svg}` and `memory.{png,svg}`
+//! (both on `costs.png`) are drawn from it, each series with its
+//! least-squares slope printed on the plot and recorded in `manifest.json`
+//! (`fits`: seconds and MiB per gridless frame). `strip.png` shows the
+//! fine-march renders from `k = 0` to `k = F`. Render times are wall times
+//! on a shared machine: relative measures, as the notes say of theirs.
+//!
+//! Run: `smokelab experiment 07-10` (about 35 s on 2 cores: 32³, 30
+//! frames, 7 values of `k`, 160×120; `--full` 50³, 60 frames, 640×480 —
+//! hours; `--smoke` 16³, 6 frames, 64×48).
+
+use std::time::Instant;
+
+use anyhow::Result;
+
+use crate::registry::{Context, Experiment};
+use crate::sphere_wall_series::{plot_costs, study_size, write_costs, CostRow, Setup};
+use smokelab::io::{self, manifest::Manifest, preview};
+use smokelab::scenario::sphere_wall::{AdvectedWall, GriddedWall};
+
+/// Registry entry.
+pub const EXPERIMENT: Experiment = Experiment {
+    id: "07-10",
+    folder: "07-10",
+    reproduces: "fig 7.10",
+    title: "render time and memory vs gridless frames, march step cell and cell/10",
+    cost: "~35 s",
+    run,
+};
+
+/// The march steps compared: series name and cell divisor.
+const MARCHES: [(&str, f32); 2] = [("march=cell", 1.0), ("march=cell/10", 10.0)];
+
+fn run(ctx: &Context) -> Result<()> {
+    let start = Instant::now();
+    let (w, h) = study_size(ctx.size);
+    let Setup { config, flow, wall } = Setup::new(ctx)?;
+    let f = flow.frames();
+    let mut gridded = GriddedWall::new(&wall, flow.domain);
+    let mut rows = vec![];
+    let mut strip = vec![];
+    // k from F down to 0: the gridded part grows one frame at a time.
+    for i in (0..=6).rev() {
+        let k = i * f / 6;
+        while gridded.frame() < f - k {
+            gridded.advance(&flow);
+        }
+        let state = AdvectedWall::gridless(&wall, Some(&gridded), &flow, k)?;
+        for (series, div) in MARCHES {
+            let (row, img) = CostRow::measure(series, k, &state, &flow, div, (w, h))?;
+            rows.push(row);
+            if div > 1.0 {
+                strip.push(img);
+            }
+        }
+    }
+    rows.sort_by(|a, b| (&a.series, a.frames).cmp(&(&b.series, b.frames)));
+    strip.reverse();
+    io::write_png(
+        &ctx.out.join("strip.png"),
+        &preview::side_by_side(&strip, 4),
+    )?;
+    write_costs(&ctx.out.join("data.csv"), &rows)?;
+    let fits = plot_costs(&ctx.out, "sphere wall", "gridless frames k (of F)")?;
+    let extra = serde_json::json!({
+        "frames": f,
+        "dt": flow.dt,
+        "image": [w, h],
+        "fits": fits,
+        "slope_units": {"time": "render seconds per gridless frame", "memory_mib": "MiB per gridless frame"},
+    });
+    io::write_json(
+        &ctx.out.join("manifest.json"),
+        &Manifest::new(config, 0, start.elapsed().as_secs_f64(), extra),
+    )
+}

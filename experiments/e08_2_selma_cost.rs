@@ -1,0 +1,91 @@
+//! # 08-2 — gridless vs SELMA: render time and memory against frames (fig 8.2)
+//!
+//! Reproduces the notes' figure 8.2 (§8): the sphere wall after `n` frames,
+//! `n = 0, F/6, …, F`, held three ways — gridless (the analytic wall
+//! composed with the chain through `n` stored velocities, eqs 7.1–7.4),
+//! SELMA (the map resampled on the velocity grid every frame, eq 8.8) and
+//! SELMA^fine (the map on a grid twice as fine per axis) — each rendered
+//! with a march step of a tenth of a velocity cell. For each: the render's
+//! wall time and the bytes held by the density representation — gridless:
+//! the `n` stored velocity grids; SELMA: the model's grids (map and its
+//! scratch, tracked lattice, reference density on the map grid, and the
+//! cell-centre cache on the velocity grid), each allocation once. The
+//! notes expect gridless to grow linearly in both and SELMA to stay flat,
+//! SELMA^fine higher in memory.
+//!
+//! `data.csv` is written first; `time.{png,svg}` and `memory.{png,svg}`
+//! (both on `costs.png`) are drawn from it, with each series' least-squares
+//! slope (seconds and MiB per frame) printed on the plot and recorded in
+//! `manifest.json` (`fits`). Render times are wall times on a shared
+//! machine: relative measures.
+//!
+//! Run: `smokelab experiment 08-2` (about 35 s on 2 cores: 32³, 30
+//! frames, 7 values of `n`, 160×120; `--full` 50³, 60 frames, 640×480 —
+//! hours; `--smoke` 16³, 6 frames, 64×48).
+
+use std::time::Instant;
+
+use anyhow::Result;
+
+use crate::registry::{Context, Experiment};
+use crate::sphere_wall_series::{plot_costs, study_size, write_costs, CostRow, Setup};
+use smokelab::io::{self, manifest::Manifest};
+use smokelab::scenario::sphere_wall::{AdvectedWall, SelmaWall};
+
+/// Registry entry.
+pub const EXPERIMENT: Experiment = Experiment {
+    id: "08-2",
+    folder: "08-2",
+    reproduces: "fig 8.2",
+    title: "render time and memory vs frames: gridless, SELMA, SELMA-fine",
+    cost: "~35 s",
+    run,
+};
+
+/// The march step, in velocity cells.
+const MARCH_DIV: f32 = 10.0;
+
+fn run(ctx: &Context) -> Result<()> {
+    let start = Instant::now();
+    let (w, h) = study_size(ctx.size);
+    let Setup { config, flow, wall } = Setup::new(ctx)?;
+    let f = flow.frames();
+    let mut selma = [
+        ("selma", SelmaWall::new(&flow, None)?),
+        ("selma-fine", SelmaWall::new(&flow, Some(2 * config.res))?),
+    ];
+    let mut rows = vec![];
+    let mut measure = |series: &str, state: &AdvectedWall, n: usize| -> Result<()> {
+        let (row, _) = CostRow::measure(series, n, state, &flow, MARCH_DIV, (w, h))?;
+        rows.push(row);
+        Ok(())
+    };
+    for i in 0..=6 {
+        let n = i * f / 6;
+        measure(
+            "gridless",
+            &AdvectedWall::gridless(&wall, None, &flow, n)?,
+            n,
+        )?;
+        for (name, s) in &mut selma {
+            while s.frame() < n {
+                s.advance(&flow);
+            }
+            measure(name, &AdvectedWall::selma(&wall, s), n)?;
+        }
+    }
+    write_costs(&ctx.out.join("data.csv"), &rows)?;
+    let fits = plot_costs(&ctx.out, "sphere wall", "advected frames n")?;
+    let extra = serde_json::json!({
+        "frames": f,
+        "dt": flow.dt,
+        "image": [w, h],
+        "march_step": flow.domain.cell / MARCH_DIV,
+        "fits": fits,
+        "slope_units": {"time": "render seconds per frame", "memory_mib": "MiB per frame"},
+    });
+    io::write_json(
+        &ctx.out.join("manifest.json"),
+        &Manifest::new(config, 0, start.elapsed().as_secs_f64(), extra),
+    )
+}

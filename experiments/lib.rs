@@ -1,0 +1,41 @@
+//! # smokelab-app
+//!
+//! The application on top of the `smokelab` library: the command line, the
+//! run driver, the numbered experiments that reproduce the notes' figures,
+//! the convergence cases, plots and the paper builder. It may use everything
+//! in the library; the library uses none of it (see `ARCHITECTURE.md`).
+
+// Commands and the run driver.
+pub mod cli;
+pub mod run;
+pub mod frames;
+pub mod render_command;
+pub mod noise_command;
+pub mod paper;
+
+// Figures and tables.
+pub mod plot;
+
+// Numbered experiments: the registry, their shared pieces, one file each.
+pub mod registry;
+pub mod convergence_cases;
+mod density_compare;
+mod sphere_wall_series;
+mod e06_1_hot_cold_gridded;
+mod e06_3_hot_cold_gridless;
+mod e06_5_density_modes;
+mod e06_6_slab_box;
+mod e07_10_gridless_cost;
+mod e07_2_gridless_noise_step;
+mod e07_4_sphere_wall_gridded;
+mod e07_5_sphere_wall_last_gridless;
+mod e07_6_sphere_wall_aliased;
+mod e07_7_sphere_wall_fine_march;
+mod e07_8_sphere_wall_gridless;
+mod e08_1_sphere_wall_selma;
+mod e08_2_selma_cost;
+mod ea_1_henyey_greenstein;
+mod ea_2_fournier_forand;
+mod ec_1_convergence;
+mod en_3_simulation_noise_2d;
+mod en_4_artist_spline;

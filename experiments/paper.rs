@@ -1,0 +1,94 @@
+//! `smokelab paper`: keep `paper/paper.md` in step with `results/` and build
+//! it to HTML.
+//!
+//! The Markdown is the source. Blocks between `<!-- name:begin -->` and
+//! `<!-- name:end -->` markers are copied from files the experiments write
+//! (the convergence orders table from `results/convergence/orders.md`), so
+//! re-running an experiment and then `smokelab paper` updates the paper.
+//! If `pandoc` is on the PATH the paper is also written to
+//! `paper/paper.html`; without it the command says so and succeeds.
+
+use std::path::Path;
+use std::process::Command;
+
+use anyhow::{bail, Context, Result};
+
+use smokelab::io;
+
+/// Replace the text between `<!-- {name}:begin -->` and `<!-- {name}:end -->`
+/// in `doc` with `content`.
+///
+/// # Errors
+/// If the markers are missing or out of order.
+pub fn replace_block(doc: &str, name: &str, content: &str) -> Result<String> {
+    let (begin, end) = (
+        format!("<!-- {name}:begin -->"),
+        format!("<!-- {name}:end -->"),
+    );
+    let (Some(b), Some(e)) = (doc.find(&begin), doc.find(&end)) else {
+        bail!("paper has no {begin} … {end} block");
+    };
+    if e < b {
+        bail!("paper's {end} comes before {begin}");
+    }
+    let start = b + begin.len();
+    Ok(format!(
+        "{}\n{}\n{}",
+        &doc[..start],
+        content.trim_end(),
+        &doc[e..]
+    ))
+}
+
+/// Refresh the generated blocks of `root/paper/paper.md` and, if pandoc is
+/// installed, write `root/paper/paper.html`.
+///
+/// # Errors
+/// Missing paper or results files, or a failing pandoc.
+pub fn build(root: &Path) -> Result<()> {
+    let md = root.join("paper/paper.md");
+    let mut doc =
+        std::fs::read_to_string(&md).with_context(|| format!("cannot read {}", md.display()))?;
+    let orders = root.join("results/convergence/orders.md");
+    let table = std::fs::read_to_string(&orders).with_context(|| {
+        format!(
+            "cannot read {} (run `smokelab experiment C-1`)",
+            orders.display()
+        )
+    })?;
+    doc = replace_block(&doc, "orders", &table)?;
+    io::write_atomic(&md, |w| {
+        use std::io::Write;
+        Ok(w.write_all(doc.as_bytes())?)
+    })?;
+    println!("refreshed {}", md.display());
+    let html = root.join("paper/paper.html");
+    match Command::new("pandoc")
+        .arg(&md)
+        .args(["--standalone", "--mathml", "--metadata"])
+        .arg("title=smokelab: resolution-independent smoke, reproduced")
+        .arg("-o")
+        .arg(&html)
+        .current_dir(root.join("paper"))
+        .status()
+    {
+        Ok(s) if s.success() => println!("wrote {}", html.display()),
+        Ok(s) => bail!("pandoc failed ({s}) building {}", html.display()),
+        Err(_) => println!("pandoc not found: the Markdown is the paper; install pandoc for HTML"),
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn replaces_only_the_named_block() {
+        let doc = "a\n<!-- t:begin -->\nold\n<!-- t:end -->\nb\n";
+        let out = replace_block(doc, "t", "new\n").unwrap();
+        assert_eq!(out, "a\n<!-- t:begin -->\nnew\n<!-- t:end -->\nb\n");
+        assert!(replace_block(doc, "missing", "x").is_err());
+        assert!(replace_block("<!-- t:end --><!-- t:begin -->", "t", "x").is_err());
+    }
+}

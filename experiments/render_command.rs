@@ -1,0 +1,275 @@
+//! `smokelab render`: render saved `.npy` volumes.
+//!
+//! ```text
+//! smokelab render --density hot_0100.npy --density cold_0100.npy --out renders/f100
+//! ```
+//!
+//! Each `--density` is an f32 array of shape `(nz, ny, nx)` as `smokelab run`
+//! writes them; all must have the same shape. The box is `[0, size]` along
+//! its longest axis (default 10, the hot/cold box) with cubic cells. Writes
+//! `render.exr` (linear, premultiplied RGBA), `render.png` (sRGB preview) and
+//! `manifest.json` (parameters and render statistics). Every input is checked
+//! before anything is written.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::Result;
+use clap::Args;
+use glam::Vec3;
+use ndarray::Array3;
+use serde::Serialize;
+
+use smokelab::domain::Domain;
+use smokelab::error::InputError;
+use smokelab::field::Scalar;
+use smokelab::grid::{ScalarGrid, Wrap};
+use smokelab::io::{self, manifest::Manifest};
+use smokelab::render::camera::{parse_image_size, parse_vec3, Camera};
+use smokelab::render::lights::PointLight;
+use smokelab::render::output::{self, Display, ExrPrecision};
+use smokelab::render::phase::Phase;
+use smokelab::render::{look, render, RenderSettings, Scene};
+
+/// `smokelab render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// A density volume (.npy, f32, shape (nz, ny, nx)); repeat for several gases.
+    #[arg(long = "density", required = true)]
+    pub densities: Vec<PathBuf>,
+    /// Display colour R,G,B of the matching --density (default: red, blue, green, white…).
+    #[arg(long = "color", allow_hyphen_values = true)]
+    pub colors: Vec<String>,
+    /// Edge length of the box along its longest axis.
+    #[arg(long, default_value_t = 10.0, allow_negative_numbers = true)]
+    pub size: f32,
+    /// Camera position X,Y,Z (default: framing the box in three-quarter view).
+    #[arg(long, allow_hyphen_values = true)]
+    pub camera: Option<String>,
+    /// Point the camera looks at, X,Y,Z (default: the box centre).
+    #[arg(long, allow_hyphen_values = true)]
+    pub look_at: Option<String>,
+    /// Vertical field of view in degrees (the default framing keeps the box in view).
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
+    pub fov: f32,
+    /// Image size WxH.
+    #[arg(long, default_value = "512x512")]
+    pub image: String,
+    /// Point light position X,Y,Z (repeatable; default: a key light above and in front).
+    #[arg(long = "light", allow_hyphen_values = true)]
+    pub lights: Vec<String>,
+    /// March step Δs (default: the cell size; the notes' fine setting is cell/10).
+    #[arg(long, allow_negative_numbers = true)]
+    pub march_step: Option<f32>,
+    /// Jittered sub-steps per march step (eq A.29).
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    pub substeps: u32,
+    /// Sample sub-steps at their midpoints instead of jittering.
+    #[arg(long)]
+    pub no_jitter: bool,
+    /// Extinction κ per unit density.
+    #[arg(long, default_value_t = look::KAPPA, allow_negative_numbers = true)]
+    pub kappa: f32,
+    /// Emission as a fraction of the scattering colour.
+    #[arg(long, default_value_t = look::GLOW, allow_negative_numbers = true)]
+    pub glow: f32,
+    /// Phase function: iso, hg:G or ff:N:MU.
+    #[arg(long, default_value = "iso")]
+    pub phase: String,
+    /// Exposure of the PNG preview.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// EXR sample precision.
+    #[arg(long, value_enum, default_value = "half")]
+    pub precision: ExrPrecision,
+    /// Jitter seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output folder.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Everything resolved from the arguments, recorded in the manifest.
+#[derive(Serialize)]
+struct RenderJob {
+    densities: Vec<PathBuf>,
+    scene: Scene,
+    settings: RenderSettings,
+    display: Display,
+    precision: ExrPrecision,
+}
+
+/// Run `smokelab render`.
+pub fn run(args: &RenderArgs) -> Result<()> {
+    let start = std::time::Instant::now();
+    let job = resolve(args)?;
+    io::check_output_dir(&args.out)?;
+    let rendered = render(&job.scene, &job.settings)?;
+    io::create_output_dir(&args.out)?;
+    output::write_exr(&args.out.join("render.exr"), &rendered.image, job.precision)?;
+    io::write_png(
+        &args.out.join("render.png"),
+        &output::preview(&rendered.image, &job.display),
+    )?;
+    let wall = start.elapsed().as_secs_f64();
+    let stats = rendered.stats;
+    io::write_json(
+        &args.out.join("manifest.json"),
+        &Manifest::new(&job, args.seed, wall, serde_json::to_value(stats)?),
+    )?;
+    println!(
+        "rendered {}x{} ({} samples, {:.2e} samples/s) in {:.1} s; wrote {}",
+        stats.width,
+        stats.height,
+        stats.samples,
+        stats.samples_per_second,
+        wall,
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Check every argument and load the volumes.
+fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
+    let (width, height) = parse_image_size(&args.image)?;
+    if !(args.kappa.is_finite() && args.kappa > 0.0) {
+        return Err(InputError::new(format!(
+            "--kappa is {}; it must be a positive finite number",
+            args.kappa
+        )));
+    }
+    if !(args.glow.is_finite() && args.glow >= 0.0) {
+        return Err(InputError::new(format!(
+            "--glow is {}; it must be a finite number ≥ 0",
+            args.glow
+        )));
+    }
+    if !(args.exposure.is_finite() && args.exposure > 0.0) {
+        return Err(InputError::new(format!(
+            "--exposure is {}; it must be a positive finite number",
+            args.exposure
+        )));
+    }
+    if !(args.size.is_finite() && args.size > 0.0) {
+        return Err(InputError::new(format!(
+            "--size is {}; it must be a positive finite number",
+            args.size
+        )));
+    }
+    if args.colors.len() > args.densities.len() {
+        return Err(InputError::new(format!(
+            "{} --color values for {} --density volumes; give at most one colour per volume",
+            args.colors.len(),
+            args.densities.len()
+        )));
+    }
+    let phase = Phase::parse(&args.phase)?;
+    let arrays = args
+        .densities
+        .iter()
+        .map(|p| read_volume(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let shape = arrays[0].dim();
+    for (a, p) in arrays.iter().zip(&args.densities).skip(1) {
+        if a.dim() != shape {
+            return Err(InputError::new(format!(
+                "volume {} has shape {:?} but {} has {:?}; all volumes must have the same shape",
+                p.display(),
+                a.dim(),
+                args.densities[0].display(),
+                shape
+            )));
+        }
+    }
+    let (nz, ny, nx) = shape;
+    let cell = args.size / nx.max(ny).max(nz) as f32;
+    let bounds = Domain::new(Vec3::ZERO, cell, [nx, ny, nz])?;
+    let mut volumes = Vec::new();
+    for (i, (a, p)) in arrays.into_iter().zip(&args.densities).enumerate() {
+        let color = match args.colors.get(i) {
+            Some(c) => parse_color(c)?,
+            None => look::default_color(i),
+        };
+        let density: Scalar = Arc::new(ScalarGrid::from_array(bounds, a).with_wrap(Wrap::Clamped));
+        let name = p
+            .file_stem()
+            .map_or_else(|| format!("volume{i}"), |s| s.to_string_lossy().into());
+        volumes.push(look::smoke(name, density, color, args.kappa, args.glow));
+    }
+    let lights = if args.lights.is_empty() {
+        vec![look::key_light(&bounds)]
+    } else {
+        args.lights
+            .iter()
+            .map(|l| {
+                Ok(PointLight {
+                    position: parse_vec3(l, "--light")?,
+                    color: look::key_light(&bounds).color,
+                })
+            })
+            .collect::<Result<_, InputError>>()?
+    };
+    let mut camera = Camera::framing_fov(&bounds, width, height, look::FILL, args.fov);
+    if let Some(c) = &args.camera {
+        camera.position = parse_vec3(c, "--camera")?;
+    }
+    if let Some(l) = &args.look_at {
+        camera.look_at = parse_vec3(l, "--look-at")?;
+    }
+    let scene = Scene {
+        bounds,
+        volumes,
+        lights,
+        phase,
+    };
+    let settings = RenderSettings {
+        camera,
+        step: args.march_step,
+        substeps: args.substeps,
+        jitter: !args.no_jitter,
+        seed: args.seed,
+    };
+    smokelab::render::validate(&scene, &settings)?;
+    Ok(RenderJob {
+        densities: args.densities.clone(),
+        scene,
+        settings,
+        display: Display {
+            exposure: args.exposure,
+            ..Display::default()
+        },
+        precision: args.precision,
+    })
+}
+
+/// Read an f32 `(nz, ny, nx)` volume with finite values.
+fn read_volume(path: &Path) -> Result<Array3<f32>, InputError> {
+    let a: Array3<f32> = ndarray_npy::read_npy(path).map_err(|e| {
+        InputError::new(format!(
+            "cannot read volume {}: {e}; it must be an f32 .npy array of shape (nz, ny, nx)",
+            path.display()
+        ))
+    })?;
+    if let Some(bad) = a.iter().find(|v| !v.is_finite()) {
+        return Err(InputError::new(format!(
+            "volume {} contains the non-finite value {bad}; densities must be finite",
+            path.display()
+        )));
+    }
+    Ok(a)
+}
+
+/// Parse `R,G,B` into a finite non-negative colour.
+fn parse_color(s: &str) -> Result<Vec3, InputError> {
+    let c = parse_vec3(s, "--color")?;
+    if c.min_element() < 0.0 {
+        return Err(InputError::new(format!(
+            "--color '{s}' has a negative component; colours must be ≥ 0"
+        )));
+    }
+    Ok(c)
+}

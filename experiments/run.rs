@@ -1,0 +1,397 @@
+//! Driving a [`Simulation`] through its frames and writing what it produced.
+//!
+//! Output folder layout (see the README):
+//! - `<gas>_NNNN.npy` — f32 `(nz, ny, nx)` density at the velocity grid's cell
+//!   centres, whatever the density mode, so runs compare file by file;
+//! - `<gas>_fine_NNNN.npy` — the density sampled at `sample_res` (if asked);
+//! - `vel_NNNN.npy` — f32 `(nz, ny, nx, 3)` velocity, as the projection left it;
+//! - `preview_NNNN.png` — mid-plane slice of the gases (obstacles grey);
+//! - `render_NNNN.exr`, `render_NNNN.png` — volume renders (with `--render`);
+//! - `obstacle.npy` — f32 `(nz, ny, nx)` obstacle level set at the cell
+//!   centres, positive inside, world units (runs with obstacles);
+//! - `metrics.csv` — one row per step, rewritten whole at every saved frame
+//!   (columns: [`metric_columns`]); the fine-sampled density measures are
+//!   computed every `metrics_every` steps and the last, `NaN` in between;
+//! - `manifest.json` — configuration, machine, commit, wall time, peak memory.
+//!
+//! Frame `N` is the state after `N` steps.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use crate::frames::{FrameRecord, FrameRender};
+use smokelab::boundary::Leak;
+use smokelab::density::probe::{self, DensityMeasures, DensityProbe};
+use smokelab::density::DensityMode;
+use smokelab::grid::ScalarGrid;
+use smokelab::io::{self, manifest::Manifest, preview, CsvLog};
+use smokelab::metrics;
+use smokelab::simulation::Simulation;
+use smokelab::timing::timed;
+
+/// Which frames to write and how to report progress.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    /// Output folder (created by the caller after validation).
+    pub out: PathBuf,
+    /// Steps to take.
+    pub frames: usize,
+    /// Frames to write volumes and previews for.
+    pub save: SaveFrames,
+    /// Show a progress bar on stderr.
+    pub progress: bool,
+    /// Compute the fine-sampled density measures every this many steps
+    /// (and at the last); they are the expensive part of a gridless run.
+    pub metrics_every: usize,
+    /// Also write each gas sampled with this many cells along the longest axis.
+    pub sample_res: Option<usize>,
+    /// Frames to volume-render, and how (`None`: no renders).
+    pub render: Option<FrameRender>,
+}
+
+/// The frames whose volumes and previews are written.
+#[derive(Clone, Debug)]
+pub enum SaveFrames {
+    /// Every K-th frame and the last (K = 0: none).
+    Every(usize),
+    /// Exactly these frames.
+    List(Vec<usize>),
+}
+
+impl SaveFrames {
+    /// Whether `frame` of a run of `last` frames is selected.
+    pub fn contains(&self, frame: usize, last: usize) -> bool {
+        match self {
+            SaveFrames::Every(0) => false,
+            SaveFrames::Every(k) => frame % k == 0 || frame == last,
+            SaveFrames::List(l) => l.contains(&frame),
+        }
+    }
+}
+
+/// What a run wrote and what it cost.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunSummary {
+    /// Wall time of the whole run, seconds.
+    pub wall_seconds: f64,
+    /// Frames whose volumes were written.
+    pub saved_frames: Vec<usize>,
+    /// Preview images written, in frame order.
+    pub previews: Vec<PathBuf>,
+    /// Seconds per stage summed over the run.
+    pub stage_seconds: smokelab::timing::StageTimes,
+    /// Mirror-symmetry error at the last step (two-gas scenarios).
+    pub final_mirror_error: Option<f32>,
+    /// How the densities were held.
+    pub density_mode: DensityMode,
+    /// Bytes held by the density representations at the last step.
+    pub final_density_bytes: usize,
+    /// Per gas, `∫S dV` (injection per unit time) by 4× supersampling.
+    pub source_rates: Vec<f64>,
+    /// Per gas, `Σ S Δx³` on the velocity grid: what the gridded path injects per unit time.
+    pub grid_source_rates: Vec<f64>,
+    /// Per gas, the injection per unit time of its own representation (the
+    /// `<g>_injected` column is this times the simulated time).
+    pub injection_rates: Vec<f64>,
+    /// Per gas, the fine-sampled measures at the last step.
+    pub final_measures: Vec<DensityMeasures>,
+    /// Volume renders written, in frame order, with their statistics.
+    pub renders: Vec<FrameRecord>,
+}
+
+/// Refinement of the quadrature of `∫S dV` for the injected-mass budget.
+const SOURCE_REFINE: usize = 4;
+
+/// Column names of `metrics.csv` for a simulation's gases:
+/// - `step, time, max_u, cfl, div_rms, div_max`;
+/// - per gas `<g>_mass` (∫ρ at 2× the velocity grid), `<g>_injected` (the
+///   exact budget of what the representation injected, `steps · Δt · rate`:
+///   a gridded density adds `S` at the cell centres, rate `Σ S Δx³`;
+///   gridless and SELMA evaluate `S` anywhere, rate `∫S dV` by 4×
+///   supersampling), `<g>_max` (peak ρ at 2×), `<g>_grad` (mean |∇ρ| at 2×),
+///   `<g>_subgrid` (share of spectral energy beyond the velocity grid's
+///   Nyquist index) — see [`smokelab::density::probe`];
+/// - `mirror_error` (two gases; densities at the cell centres) and
+///   `vel_mirror_error` (the velocity, [`metrics::velocity_mirror_error`]);
+/// - `density_bytes` (all gases' representations, shared buffers once);
+/// - wall seconds per stage `t_advect, t_density` (gridless/SELMA evaluation
+///   at the cell centres for buoyancy), `t_force, t_project, t_output,
+///   t_metrics` (the fine measures).
+pub fn metric_columns(sim: &Simulation) -> Vec<String> {
+    let mut cols: Vec<String> = ["step", "time", "max_u", "cfl", "div_rms", "div_max"]
+        .map(String::from)
+        .to_vec();
+    for g in &sim.gases {
+        for m in ["mass", "injected", "max", "grad", "subgrid"] {
+            cols.push(format!("{}_{m}", g.name));
+        }
+    }
+    if sim.gases.len() == 2 {
+        cols.push("mirror_error".into());
+    }
+    cols.push("vel_mirror_error".into());
+    cols.push("density_bytes".into());
+    cols.push("substeps".into());
+    if sim.boundary.is_some() {
+        cols.extend(Leak::COLUMNS.map(String::from));
+        cols.extend(["face_cg_iterations", "face_div_rel"].map(String::from));
+    }
+    cols.extend(
+        [
+            "t_advect",
+            "t_density",
+            "t_force",
+            "t_project",
+            "t_output",
+            "t_metrics",
+        ]
+        .map(String::from),
+    );
+    cols
+}
+
+/// Step `sim` through `opts.frames` frames, writing into `opts.out`.
+///
+/// Stops with an error naming the step if the velocity becomes non-finite;
+/// frames written before that stay.
+pub fn run<C: Serialize>(
+    sim: &mut Simulation,
+    opts: &RunOptions,
+    config: &C,
+    seed: u64,
+) -> Result<RunSummary> {
+    run_with(sim, opts, config, seed, |_, _| Ok(()))
+}
+
+/// [`run`], calling `at_saved(sim, frame)` after each saved frame is written
+/// (experiments capture their images there); its time counts as output.
+pub fn run_with<C: Serialize>(
+    sim: &mut Simulation,
+    opts: &RunOptions,
+    config: &C,
+    seed: u64,
+    mut at_saved: impl FnMut(&Simulation, usize) -> Result<()>,
+) -> Result<RunSummary> {
+    let start = Instant::now();
+    let cols = metric_columns(sim);
+    let col_refs: Vec<&str> = cols.iter().map(String::as_str).collect();
+    let mut csv = CsvLog::new(opts.out.join("metrics.csv"), &col_refs);
+    let bar = if opts.progress {
+        ProgressBar::new(opts.frames as u64).with_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} steps {msg}")
+                .expect("static template"),
+        )
+    } else {
+        ProgressBar::hidden()
+    };
+    let domain = *sim.domain();
+    let source_rates: Vec<f64> = sim
+        .gases
+        .iter()
+        .map(|g| probe::integral(&*g.source_field, &domain, SOURCE_REFINE))
+        .collect();
+    let mut summary = RunSummary {
+        wall_seconds: 0.0,
+        saved_frames: vec![],
+        previews: vec![],
+        stage_seconds: Default::default(),
+        final_mirror_error: None,
+        density_mode: sim
+            .gases
+            .first()
+            .map_or_else(Default::default, |g| g.model.mode()),
+        final_density_bytes: 0,
+        grid_source_rates: sim.gases.iter().map(|g| g.source.total()).collect(),
+        injection_rates: sim
+            .gases
+            .iter()
+            .zip(&source_rates)
+            .map(|(g, &exact)| match g.model.mode() {
+                DensityMode::Gridded => g.source.total(),
+                DensityMode::Gridless | DensityMode::Selma => exact,
+            })
+            .collect(),
+        source_rates,
+        final_measures: vec![],
+        renders: vec![],
+    };
+    if let Some(b) = &sim.boundary {
+        io::write_npy3(&opts.out.join("obstacle.npy"), b.level().data())?;
+    }
+    let mut probe = DensityProbe::new(domain);
+    let every = opts.metrics_every.max(1);
+    for frame in 1..=opts.frames {
+        if let Err(e) = sim.try_step() {
+            csv.flush()?;
+            bail!(
+                "step {frame}: {e}; frames written so far are in {}",
+                opts.out.display()
+            );
+        }
+        let mut times = sim.times;
+        let finite = sim.velocity.is_finite();
+        if !finite {
+            csv.flush()?;
+            bail!(
+                "velocity became non-finite at step {frame}; frames written so far are in {}",
+                opts.out.display()
+            );
+        }
+        let max_u = sim.velocity.max_norm();
+        let div = metrics::divergence_stats(&sim.velocity);
+        let mirror = (sim.gases.len() == 2)
+            .then(|| metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density()));
+        let measures: Option<Vec<DensityMeasures>> = (frame % every == 0 || frame == opts.frames)
+            .then(|| {
+                timed(&mut times.metrics, || {
+                    sim.gases.iter().map(|g| probe.measure(&g.model)).collect()
+                })
+            });
+        if opts.save.contains(frame, opts.frames) {
+            timed(&mut times.output, || {
+                write_frame(sim, &opts.out, frame, opts.sample_res)?;
+                at_saved(sim, frame)
+            })?;
+            summary.saved_frames.push(frame);
+            summary.previews.push(preview_path(&opts.out, frame));
+        }
+        let density_bytes = sim.density_bytes();
+        if let Some(r) = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames)) {
+            let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
+            summary.renders.push(record);
+        }
+        let mut row = vec![
+            frame as f64,
+            sim.time() as f64,
+            max_u as f64,
+            (max_u * sim.params.dt / sim.domain().cell) as f64,
+            div.rms as f64,
+            div.max as f64,
+        ];
+        for (n, rate) in summary.injection_rates.iter().enumerate() {
+            let m = measures.as_ref().map(|m| m[n]);
+            row.extend([
+                m.map_or(f64::NAN, |m| m.mass),
+                frame as f64 * sim.params.dt as f64 * rate,
+                m.map_or(f64::NAN, |m| m.max),
+                m.map_or(f64::NAN, |m| m.mean_gradient),
+                m.map_or(f64::NAN, |m| m.subgrid_fraction),
+            ]);
+        }
+        row.extend(mirror.map(|m| m as f64));
+        row.push(metrics::velocity_mirror_error(&sim.velocity) as f64);
+        row.push(density_bytes as f64);
+        row.push(sim.advector().substeps() as f64);
+        if let Some(b) = &sim.boundary {
+            let densities: Vec<_> = sim.gases.iter().map(|g| g.density()).collect();
+            row.extend(b.leak(&sim.velocity, &densities).row());
+            let (iterations, residual) = sim.advector().face_projection_stats().unwrap_or((0, 0.0));
+            row.extend([iterations as f64, residual as f64]);
+        }
+        row.extend([
+            times.advect,
+            times.density,
+            times.force,
+            times.project,
+            times.output,
+            times.metrics,
+        ]);
+        csv.push(&row);
+        if summary.saved_frames.last() == Some(&frame) {
+            csv.flush()?;
+        }
+        let s = &mut summary.stage_seconds;
+        s.advect += times.advect;
+        s.density += times.density;
+        s.force += times.force;
+        s.project += times.project;
+        s.output += times.output;
+        s.metrics += times.metrics;
+        summary.final_mirror_error = mirror;
+        summary.final_density_bytes = density_bytes;
+        if let Some(m) = measures {
+            summary.final_measures = m;
+        }
+        bar.set_message(format!("max|u| {max_u:.3}"));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    csv.flush()?;
+    summary.wall_seconds = start.elapsed().as_secs_f64();
+    let extra = serde_json::to_value(&summary)?;
+    io::write_json(
+        &opts.out.join("manifest.json"),
+        &Manifest::new(config, seed, summary.wall_seconds, extra),
+    )?;
+    Ok(summary)
+}
+
+fn preview_path(out: &Path, frame: usize) -> PathBuf {
+    out.join(format!("preview_{frame:04}.png"))
+}
+
+/// Write the volumes and the preview of one frame: each gas at the velocity
+/// grid's cell centres, and, with `sample_res`, sampled at that resolution.
+pub fn write_frame(
+    sim: &Simulation,
+    out: &Path,
+    frame: usize,
+    sample_res: Option<usize>,
+) -> Result<()> {
+    for g in &sim.gases {
+        io::write_npy3(
+            &out.join(format!("{}_{frame:04}.npy", g.name)),
+            g.density().data(),
+        )?;
+    }
+    if let Some(res) = sample_res {
+        let fine = sim.domain().with_resolution(res)?;
+        let mut grid = ScalarGrid::zeros(fine);
+        for g in &sim.gases {
+            g.model.sample(&mut grid);
+            io::write_npy3(
+                &out.join(format!("{}_fine_{frame:04}.npy", g.name)),
+                grid.data(),
+            )?;
+        }
+    }
+    io::write_npy4(
+        &out.join(format!("vel_{frame:04}.npy")),
+        sim.velocity.data(),
+    )?;
+    io::write_png(&preview_path(out, frame), &preview_image(sim))
+}
+
+/// Mid-plane slice of every gas in its display colour, obstacles in grey.
+pub fn preview_image(sim: &Simulation) -> image::RgbImage {
+    let solid = sim.boundary.as_ref().map(|b| {
+        let mut m = b.level().clone();
+        m.as_slice_mut()
+            .iter_mut()
+            .for_each(|o| *o = if *o >= 0.0 { 2.0 } else { 0.0 });
+        m
+    });
+    let mut layers: Vec<preview::Layer> = sim
+        .gases
+        .iter()
+        .map(|g| preview::Layer {
+            grid: g.density(),
+            color: if g.lift >= 0.0 {
+                preview::RED
+            } else {
+                preview::BLUE
+            },
+        })
+        .collect();
+    if let Some(grid) = &solid {
+        layers.push(preview::Layer {
+            grid,
+            color: preview::GREY,
+        });
+    }
+    preview::mid_slice(&layers, 1.0, 256)
+}

@@ -1,0 +1,159 @@
+//! The command line: bad input exits 2 with a clear line and writes nothing.
+
+mod common;
+
+use common::smokelab;
+
+fn assert_rejected(args: &[&str], needle: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("bad.toml"), "res = \"fifty\"\n").unwrap();
+    std::fs::write(dir.path().join("unknown.toml"), "res = 8\nresolution = 8\n").unwrap();
+    let mut full: Vec<&str> = args.to_vec();
+    full.extend(["--out", "out"]);
+    let o = smokelab(&full, dir.path());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{args:?}: exit {:?}, stderr {err}",
+        o.status.code()
+    );
+    assert!(
+        err.contains(needle),
+        "{args:?}: stderr {err:?} does not mention {needle:?}"
+    );
+    assert!(
+        err.lines().filter(|l| !l.trim().is_empty()).count() <= 4,
+        "{args:?}: message too long: {err}"
+    );
+    assert!(
+        !dir.path().join("out").exists(),
+        "{args:?}: output folder was created"
+    );
+    assert!(
+        !dir.path().join("runs").exists(),
+        "{args:?}: a run folder was created"
+    );
+}
+
+#[test]
+fn bad_inputs_exit_2_and_write_nothing() {
+    assert_rejected(&["run", "hot-cold", "--res", "3"], "resolution 3");
+    assert_rejected(&["run", "hot-cold", "--res", "100000"], "GiB");
+    assert_rejected(&["run", "hot-cold", "--dt", "0"], "dt is 0");
+    assert_rejected(&["run", "hot-cold", "--dt", "-0.1"], "dt is -0.1");
+    assert_rejected(&["run", "hot-cold", "--dt", "nan"], "dt is NaN");
+    assert_rejected(&["run", "hot-cold", "--dt", "inf"], "dt is inf");
+    assert_rejected(&["run", "hot-cold", "--frames", "-3"], "-3");
+    assert_rejected(&["run", "warm-tepid"], "warm-tepid");
+    assert_rejected(
+        &["run", "hot-cold", "--config", "missing.toml"],
+        "missing.toml",
+    );
+    assert_rejected(&["run", "hot-cold", "--config", "bad.toml"], "bad.toml");
+    assert_rejected(
+        &["run", "hot-cold", "--config", "unknown.toml"],
+        "resolution",
+    );
+    assert_rejected(&["experiment", "99-9"], "99-9");
+}
+
+#[test]
+fn experiment_list_names_06_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = smokelab(&["experiment", "--list"], dir.path());
+    assert!(o.status.success());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("06-1") && out.contains("fig"), "{out}");
+}
+
+#[test]
+fn small_run_writes_whole_outputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = smokelab(
+        &[
+            "run",
+            "hot-cold",
+            "--res",
+            "12",
+            "--frames",
+            "4",
+            "--save-every",
+            "2",
+            "--out",
+            "r",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let r = dir.path().join("r");
+    for f in [
+        "hot_0002.npy",
+        "cold_0004.npy",
+        "vel_0004.npy",
+        "preview_0004.png",
+        "metrics.csv",
+        "manifest.json",
+    ] {
+        assert!(r.join(f).is_file(), "missing {f}");
+    }
+    let vel: ndarray::Array4<f32> = ndarray_npy::read_npy(r.join("vel_0004.npy")).unwrap();
+    assert_eq!(vel.dim(), (12, 12, 12, 3));
+    let csv = std::fs::read_to_string(r.join("metrics.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 5, "header + one row per step");
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(r.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["config"]["res"], 12);
+    assert!(std::fs::read_dir(&r).unwrap().all(|e| !e
+        .unwrap()
+        .path()
+        .to_string_lossy()
+        .ends_with(".tmp")));
+}
+
+#[test]
+fn experiment_06_1_smoke_writes_sequence() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = smokelab(
+        &["experiment", "06-1", "--smoke", "--quiet", "--out", "e"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["sequence.png", "metrics.csv", "manifest.json"] {
+        assert!(dir.path().join("e").join(f).is_file(), "missing {f}");
+    }
+}
+
+#[test]
+fn experiment_all_smoke_runs_every_experiment_and_tabulates() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = smokelab(
+        &["experiment", "all", "--smoke", "--quiet", "--out", "all"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let table = std::fs::read_to_string(dir.path().join("all/experiments.csv")).unwrap();
+    let list = String::from_utf8(smokelab(&["experiment", "--list"], dir.path()).stdout).unwrap();
+    // One row per experiment of the listing (header excluded), each "ok",
+    // each output folder written.
+    let ids: Vec<&str> = list
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert!(ids.len() >= 10, "listing: {list}");
+    let rows: Vec<&str> = table.lines().skip(1).collect();
+    assert_eq!(rows.len(), ids.len(), "{table}");
+    for (row, id) in rows.iter().zip(&ids) {
+        let cells: Vec<&str> = row.split(',').collect();
+        assert_eq!(cells[0], *id, "{row}");
+        assert!(row.ends_with(",\"ok\""), "{row}");
+        let folder = dir.path().join(cells[cells.len() - 2]);
+        assert!(
+            std::fs::read_dir(&folder).is_ok_and(|mut d| d.next().is_some()),
+            "{id} wrote nothing in {}",
+            folder.display()
+        );
+    }
+}

@@ -1,0 +1,127 @@
+//! The `smokelab` command line end to end (moved from `tests/density.rs`).
+
+mod common;
+
+use common::smokelab;
+use smokelab::scenario::hot_cold::HotColdConfig;
+
+#[test]
+fn a_gridless_run_too_big_for_memory_is_refused_with_its_estimate() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| smokelab(args, dir.path());
+    // 64³ × 10⁶ steps: 12 MB per stored velocity grid, about 11 TiB in all.
+    let o = run(&[
+        "run",
+        "hot-cold",
+        "--density",
+        "gridless",
+        "--res",
+        "64",
+        "--frames",
+        "1000000",
+        "--out",
+        "out",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("GiB") && err.contains("one velocity grid per step"),
+        "{err}"
+    );
+    assert!(err.contains("--force"), "{err}");
+    assert!(!dir.path().join("out").exists());
+    // The same run gridded fits.
+    let cfg = HotColdConfig {
+        res: 64,
+        frames: 1_000_000,
+        ..Default::default()
+    };
+    assert!(cfg.validate().is_ok());
+    // Options that make no sense are refused too.
+    for (args, needle) in [
+        (
+            &["run", "hot-cold", "--density", "gridded", "--map-res", "32"][..],
+            "map_res 32",
+        ),
+        (
+            &["run", "hot-cold", "--density", "selma", "--map-res", "2"][..],
+            "map-res 2",
+        ),
+        (
+            &["run", "hot-cold", "--metrics-every", "0"][..],
+            "metrics_every is 0",
+        ),
+        (
+            &[
+                "run",
+                "hot-cold",
+                "--density",
+                "selma",
+                "--selma-remap",
+                "-1",
+            ][..],
+            "selma_remap is -1",
+        ),
+        (&["run", "hot-cold", "--density", "fluffy"][..], "fluffy"),
+    ] {
+        let mut a = args.to_vec();
+        a.extend(["--out", "out"]);
+        let o = run(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!dir.path().join("out").exists());
+    }
+}
+
+#[test]
+fn density_experiments_run_at_smoke_size_and_write_their_figures() {
+    let dir = tempfile::tempdir().unwrap();
+    for (id, figures) in [
+        (
+            "06-3",
+            &["sequence.png", "frame.png", "frame_render.png"][..],
+        ),
+        (
+            "06-5",
+            &["side_by_side.png", "side_by_side_render.png", "final.png"][..],
+        ),
+    ] {
+        let out = dir.path().join(id);
+        let o = smokelab(
+            &[
+                "experiment",
+                id,
+                "--smoke",
+                "--quiet",
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            dir.path(),
+        );
+        assert!(
+            o.status.success(),
+            "{id}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let common = [
+            "metrics.png",
+            "metrics_mass.svg",
+            "metrics_symmetry.png",
+            "metrics_memory.svg",
+            "summary.csv",
+            "manifest.json",
+            "gridless/metrics.csv",
+        ];
+        for f in figures.iter().chain(&common) {
+            assert!(out.join(f).is_file(), "{id}: no {f}");
+        }
+        let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+        for mode in ["gridded", "gridless", "selma"] {
+            assert!(
+                summary.lines().any(|l| l.starts_with(mode)),
+                "{id}: {summary}"
+            );
+        }
+    }
+}

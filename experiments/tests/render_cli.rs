@@ -1,0 +1,158 @@
+//! The `smokelab` command line end to end (moved from `tests/render.rs`).
+
+mod common;
+
+use common::smokelab;
+use ndarray::Array3;
+use std::path::Path;
+
+fn write_volume(path: &Path, shape: (usize, usize, usize)) {
+    let a = Array3::<f32>::from_shape_fn(shape, |(k, j, i)| ((i + j + k) % 3) as f32 * 0.2);
+    ndarray_npy::write_npy(path, &a).unwrap();
+}
+
+#[test]
+fn render_command_writes_exr_png_and_manifest() {
+    let dir = tempfile::tempdir().unwrap();
+    let (hot, cold) = (dir.path().join("hot.npy"), dir.path().join("cold.npy"));
+    write_volume(&hot, (8, 8, 8));
+    write_volume(&cold, (8, 8, 8));
+    let out = dir.path().join("out");
+    let o = smokelab(
+        &[
+            "render",
+            "--density",
+            hot.to_str().unwrap(),
+            "--density",
+            cold.to_str().unwrap(),
+            "--image",
+            "32x24",
+            "--camera",
+            "-5,12,20",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        Path::new("."),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let png = image::open(out.join("render.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (32, 24));
+    assert!(out.join("render.exr").is_file());
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert!(m["extra"]["samples"].as_u64().unwrap() > 0);
+    assert_eq!(m["config"]["scene"]["volumes"].as_array().unwrap().len(), 2);
+}
+
+#[test]
+fn render_command_rejects_bad_input_with_exit_2_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    write_volume(Path::new(&p("a.npy")), (8, 8, 8));
+    write_volume(Path::new(&p("b.npy")), (8, 8, 6));
+    std::fs::write(p("junk.npy"), b"not a numpy file").unwrap();
+    let out = p("out");
+    let a = p("a.npy");
+    let cases: Vec<(&str, Vec<&str>)> = vec![
+        ("zero image", vec!["--density", &a, "--image", "0x64"]),
+        (
+            "absurd image",
+            vec!["--density", &a, "--image", "100000x100000"],
+        ),
+        ("malformed image", vec!["--density", &a, "--image", "big"]),
+        (
+            "non-finite camera",
+            vec!["--density", &a, "--camera", "nan,1,2"],
+        ),
+        (
+            "infinite camera",
+            vec!["--density", &a, "--camera", "inf,1,2"],
+        ),
+        ("non-finite kappa", vec!["--density", &a, "--kappa", "nan"]),
+        ("infinite kappa", vec!["--density", &a, "--kappa", "inf"]),
+        ("negative kappa", vec!["--density", &a, "--kappa", "-1"]),
+        ("missing volume", vec!["--density", "/nonexistent/x.npy"]),
+        ("unreadable volume", vec!["--density", "JUNK"]),
+        ("different shapes", vec!["--density", &a, "--density", "B"]),
+        (
+            "zero march step",
+            vec!["--density", &a, "--march-step", "0"],
+        ),
+        ("bad phase", vec!["--density", &a, "--phase", "hg:1.5"]),
+    ];
+    let junk = p("junk.npy");
+    let b = p("b.npy");
+    for (what, args) in cases {
+        let mut full = vec!["render", "--out", &out];
+        full.extend(args.iter().map(|s| match *s {
+            "JUNK" => junk.as_str(),
+            "B" => b.as_str(),
+            s => s,
+        }));
+        let o = smokelab(&full, Path::new("."));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(
+            o.status.code(),
+            Some(2),
+            "{what}: exit {:?}, stderr {err}",
+            o.status
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{what}: not one line: {err}");
+        assert!(err.starts_with("error:"), "{what}: {err}");
+        assert!(!Path::new(&out).exists(), "{what}: wrote {out}");
+    }
+}
+
+#[test]
+fn run_with_render_writes_render_frames_and_rejects_bad_render_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let o = smokelab(
+        &[
+            "run",
+            "hot-cold",
+            "--res",
+            "8",
+            "--frames",
+            "4",
+            "--save-every",
+            "2",
+            "--render",
+            "--render-every",
+            "4",
+            "--image",
+            "24x16",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        Path::new("."),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("render_0004.png").is_file() && out.join("render_0004.exr").is_file());
+    assert!(
+        !out.join("render_0002.png").exists(),
+        "only every 4th frame is rendered"
+    );
+    let png = image::open(out.join("render_0004.png")).unwrap();
+    assert_eq!((png.width(), png.height()), (24, 16));
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["extra"]["renders"][0]["frame"], 4);
+
+    let bad = dir.path().join("bad");
+    for args in [
+        vec!["--render", "--image", "0x16"],
+        vec!["--render", "--march-step", "-1"],
+        vec!["--render", "--save-every", "0"],
+    ] {
+        let mut full = vec!["run", "hot-cold", "--res", "8", "--frames", "2", "--quiet"];
+        full.extend(args.iter().copied());
+        full.extend(["--out", bad.to_str().unwrap()]);
+        let o = smokelab(&full, Path::new("."));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(!bad.exists(), "{args:?} wrote {}", bad.display());
+    }
+}
