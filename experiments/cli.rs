@@ -12,6 +12,7 @@ use clap::{Args, Parser, Subcommand};
 use crate::frames::FrameRender;
 use crate::registry;
 use crate::run::{self, RunOptions, SaveFrames};
+use serde::Serialize;
 use smokelab::advection::{Backtrace, Limiter, Scheme};
 use smokelab::boundary::BoundaryRule;
 use smokelab::density::DensityMode;
@@ -20,7 +21,7 @@ use smokelab::io;
 use smokelab::render::camera::parse_image_size;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::slab_box::SlabBoxConfig;
-use smokelab::scenario::ScenarioKind;
+use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig};
 
 /// Navier–Stokes smoke with gridded, gridless and SELMA density.
 #[derive(Debug, Parser)]
@@ -47,86 +48,30 @@ pub enum Command {
 }
 
 /// `smokelab run`.
-#[derive(Debug, Args)]
+#[derive(Debug, Default, Args)]
 pub struct RunArgs {
     /// Scenario to run.
     #[arg(value_enum, default_value = "hot-cold")]
     pub scenario: ScenarioKind,
-    /// TOML file with scenario parameters; flags override it.
+    /// TOML file with configuration keys (any of `--print-config`'s); flags override it.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Cells per axis.
-    #[arg(long, allow_negative_numbers = true)]
-    pub res: Option<usize>,
-    /// Number of time steps (frames).
-    #[arg(long, allow_negative_numbers = true)]
-    pub frames: Option<usize>,
-    /// Time step Δt.
-    #[arg(long, allow_negative_numbers = true)]
-    pub dt: Option<f32>,
-    /// Kinematic viscosity ν.
-    #[arg(long, allow_negative_numbers = true)]
-    pub nu: Option<f32>,
-    /// Magnitude of gravity.
-    #[arg(long, allow_negative_numbers = true)]
-    pub gravity: Option<f32>,
-    /// Radius of the injection spheres.
-    #[arg(long, allow_negative_numbers = true)]
-    pub radius: Option<f32>,
-    /// Semi-Lagrangian backtrace.
-    #[arg(long, value_enum)]
-    pub backtrace: Option<Backtrace>,
-    /// Advection scheme for velocity and densities.
-    #[arg(long, value_enum)]
-    pub advection: Option<Scheme>,
-    /// QUICK density limiter.
-    #[arg(long, value_enum)]
-    pub limiter: Option<Limiter>,
-    /// QUICK: refuse steps beyond the CFL bound instead of splitting them.
+    /// The solver's parameters, shared by every scenario.
+    #[command(flatten)]
+    pub solver: SolverFlags,
+    /// Parameters of the sources and obstacles that have flags of their own.
+    #[command(flatten)]
+    pub scene: SceneFlags,
+    /// Set any configuration key to a TOML value, e.g. `--set wall=1.2`
+    /// or `--set 'slab_min=[2, 5, 1.5]'` (repeatable; after --config and the flags).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Print the resolved configuration as TOML and exit.
     #[arg(long)]
-    pub no_substeps: bool,
-    /// Obstacle rule (slab-box): reflecting (eq 6.6) or sticky (eq 6.7).
-    #[arg(long, value_enum)]
-    pub boundary: Option<BoundaryRule>,
-    /// Fraction α of normal velocity a sticky boundary sends back (slab-box).
-    #[arg(long, allow_negative_numbers = true)]
-    pub alpha: Option<f32>,
-    /// Boundary-rule/projection pairs per step (slab-box).
-    #[arg(long, allow_negative_numbers = true)]
-    pub boundary_passes: Option<usize>,
-    /// Write volumes every K frames (0: metrics only).
-    #[arg(long, allow_negative_numbers = true)]
-    pub save_every: Option<usize>,
-    /// Width of a smooth edge of the injection spheres (0: solid, as the notes).
-    #[arg(long, allow_negative_numbers = true)]
-    pub source_edge: Option<f32>,
-    /// How the densities are held: gridded (eq 6.4), gridless (eq 7.4) or selma (eq 8.8).
-    #[arg(long, value_enum)]
-    pub density: Option<DensityMode>,
-    /// SELMA map grid cells along the longest axis (default: --res; finer is SELMA^fine).
-    #[arg(long, allow_negative_numbers = true)]
-    pub map_res: Option<usize>,
-    /// SELMA: re-anchor the map when its lattice has deformed by more than this many map cells (0: never).
-    #[arg(long, allow_negative_numbers = true)]
-    pub selma_remap: Option<f32>,
-    /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
-    #[arg(long, allow_negative_numbers = true)]
-    pub sample_res: Option<usize>,
-    /// Fine-sampled density metrics every K steps (costly for gridless; default 1).
-    #[arg(long, allow_negative_numbers = true)]
-    pub metrics_every: Option<usize>,
-    /// Run even if the memory estimate exceeds the available memory.
-    #[arg(long)]
-    pub force: bool,
-    /// Random seed.
-    #[arg(long)]
-    pub seed: Option<u64>,
+    pub print_config: bool,
     /// Output folder (default: a new folder under `runs/`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    pub threads: Option<usize>,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -144,133 +89,170 @@ pub struct RunArgs {
     pub march_step: Option<f32>,
 }
 
-impl Default for RunArgs {
-    fn default() -> Self {
-        Self {
-            scenario: ScenarioKind::HotCold,
-            config: None,
-            res: None,
-            frames: None,
-            dt: None,
-            nu: None,
-            gravity: None,
-            radius: None,
-            backtrace: None,
-            advection: None,
-            limiter: None,
-            no_substeps: false,
-            boundary: None,
-            alpha: None,
-            boundary_passes: None,
-            save_every: None,
-            source_edge: None,
-            density: None,
-            map_res: None,
-            selma_remap: None,
-            sample_res: None,
-            metrics_every: None,
-            force: false,
-            seed: None,
-            out: None,
-            threads: None,
-            quiet: false,
-            render: false,
-            render_every: None,
-            image: None,
-            march_step: None,
-        }
-    }
+/// Flags for the keys of [`SolverConfig`]: each given flag overrides its key
+/// (same name, `-` for `_`); see `SolverConfig` for what each means.
+#[derive(Debug, Default, Args, Serialize)]
+pub struct SolverFlags {
+    /// Cells per axis.
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub res: Option<usize>,
+    /// Edge length of the cubic box.
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub size: Option<f32>,
+    /// Number of time steps (frames).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub frames: Option<usize>,
+    /// Time step Δt.
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dt: Option<f32>,
+    /// Kinematic viscosity ν.
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nu: Option<f32>,
+    /// Magnitude of gravity.
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<f32>,
+    /// Semi-Lagrangian backtrace.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backtrace: Option<Backtrace>,
+    /// Advection scheme for velocity and densities.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub advection: Option<Scheme>,
+    /// QUICK: refuse steps beyond the CFL bound instead of splitting them (key `substeps = false`).
+    #[arg(long)]
+    #[serde(
+        rename = "substeps",
+        skip_serializing_if = "is_false",
+        serialize_with = "negated"
+    )]
+    pub no_substeps: bool,
+    /// QUICK density limiter.
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub limiter: Option<Limiter>,
+    /// How the densities are held: gridded (eq 6.4), gridless (eq 7.4) or selma (eq 8.8).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub density: Option<DensityMode>,
+    /// SELMA map grid cells along the longest axis (default: --res; finer is SELMA^fine).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub map_res: Option<usize>,
+    /// SELMA: re-anchor the map when its lattice has deformed by more than this many map cells (0: never).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub selma_remap: Option<f32>,
+    /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sample_res: Option<usize>,
+    /// Write volumes every K frames (0: metrics only).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub save_every: Option<usize>,
+    /// Fine-sampled density metrics every K steps (costly for gridless; default 1).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub metrics_every: Option<usize>,
+    /// Run even if the memory estimate exceeds the available memory.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "is_false")]
+    pub force: bool,
+    /// Random seed.
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub threads: Option<usize>,
+}
+
+/// Flags for scenario keys that have their own (others: `--set KEY=VALUE`).
+/// A flag the chosen scenario does not have is refused, naming the scenario
+/// that has it.
+#[derive(Debug, Default, Args, Serialize)]
+pub struct SceneFlags {
+    /// Radius of the injection spheres.
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f32>,
+    /// Width of a smooth edge of the injection spheres (hot-cold; 0: solid, as the notes).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub source_edge: Option<f32>,
+    /// Obstacle rule (slab-box): reflecting (eq 6.6) or sticky (eq 6.7).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub boundary: Option<BoundaryRule>,
+    /// Fraction α of normal velocity a sticky boundary sends back (slab-box).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub alpha: Option<f32>,
+    /// Boundary-rule/projection pairs per step (slab-box).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub boundary_passes: Option<usize>,
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+fn negated<S: serde::Serializer>(b: &bool, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_bool(!*b)
 }
 
 impl RunArgs {
-    /// The hot/cold configuration: defaults, then the TOML file, then flags.
-    pub fn hot_cold_config(&self) -> Result<HotColdConfig, InputError> {
-        let mut c = match &self.config {
-            Some(path) => HotColdConfig::from_toml_file(path)?,
-            None => HotColdConfig::default(),
-        };
-        macro_rules! take {
-            ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
+    /// The configuration layers this command line gives, in order: the
+    /// `--config` file, the flags, the `--set` pairs.
+    fn layers(&self) -> Result<Vec<(String, toml::Table)>, InputError> {
+        let mut layers = Vec::new();
+        if let Some(path) = &self.config {
+            layers.push((format!("config {}", path.display()), config::read_toml(path)?));
         }
-        take!(
-            res,
-            frames,
-            dt,
-            nu,
-            gravity,
-            radius,
-            backtrace,
-            save_every,
-            source_edge,
-            density,
-            selma_remap,
-            metrics_every,
-            seed
-        );
-        take!(advection, limiter);
-        if self.no_substeps {
-            c.substeps = false;
-        }
-        if self.map_res.is_some() {
-            c.map_res = self.map_res;
-        }
-        if self.sample_res.is_some() {
-            c.sample_res = self.sample_res;
-        }
-        c.force |= self.force;
-        for (flag, given) in [
-            ("--boundary", self.boundary.is_some()),
-            ("--alpha", self.alpha.is_some()),
-            ("--boundary-passes", self.boundary_passes.is_some()),
-        ] {
-            if given {
+        let mut flags = toml::Table::try_from(&self.solver).expect("flags serialize to a table");
+        flags.extend(toml::Table::try_from(&self.scene).expect("flags serialize to a table"));
+        layers.push(("flags".into(), flags));
+        let mut set = toml::Table::new();
+        for pair in &self.set {
+            let Some((key, value)) = pair.split_once('=') else {
                 return Err(InputError::new(format!(
-                    "{flag} applies to slab-box only; hot-cold has no obstacles"
+                    "--set {pair}: give KEY=VALUE, e.g. --set wall=1.2"
                 )));
-            }
+            };
+            // A TOML value, or else the text itself (`--set boundary=sticky`).
+            let value = toml::from_str::<toml::Table>(&format!("v = {value}"))
+                .ok()
+                .and_then(|mut t| t.remove("v"))
+                .unwrap_or_else(|| toml::Value::String(value.to_string()));
+            set.insert(key.trim().to_string(), value);
         }
-        c.validate()?;
-        Ok(c)
+        layers.push(("--set".into(), set));
+        Ok(layers)
     }
 
-    /// The slab-box configuration: defaults, then the TOML file, then flags.
-    pub fn slab_box_config(&self) -> Result<SlabBoxConfig, InputError> {
-        let mut c = match &self.config {
-            Some(path) => SlabBoxConfig::from_toml_file(path)?,
-            None => SlabBoxConfig::default(),
-        };
-        macro_rules! take {
-            ($($f:ident),*) => { $( if let Some(v) = self.$f { c.$f = v; } )* };
-        }
-        take!(res, frames, dt, nu, gravity, radius, backtrace, save_every, seed);
-        take!(advection, limiter, boundary, alpha, boundary_passes);
-        if self.no_substeps {
-            c.substeps = false;
-        }
-        for (flag, given) in [
-            (
-                "--density",
-                self.density.is_some_and(|d| d != DensityMode::Gridded),
-            ),
-            ("--map-res", self.map_res.is_some()),
-            ("--selma-remap", self.selma_remap.is_some()),
-            ("--sample-res", self.sample_res.is_some()),
-            ("--source-edge", self.source_edge.is_some()),
-        ] {
-            if given {
-                return Err(InputError::new(format!(
-                    "{flag} applies to hot-cold only; slab-box holds its gas on the grid (--density gridded)"
-                )));
-            }
-        }
-        if self.metrics_every == Some(0) {
-            return Err(InputError::new(
-                "--metrics-every 0: give a step count ≥ 1".to_string(),
-            ));
-        }
-        c.validate()?;
-        Ok(c)
+    /// The configuration of scenario `C`: its defaults, then `--config`, the
+    /// flags and `--set`, checked.
+    pub fn resolve<C: Scenario>(&self) -> Result<C, InputError> {
+        config::resolve::<C>(&self.layers()?, &scenario_keys())
     }
+}
+
+/// Every scenario's name and keys, for naming the owner of a key another
+/// scenario does not have.
+fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
+    vec![
+        (HotColdConfig::NAME, config::keys::<HotColdConfig>()),
+        (SlabBoxConfig::NAME, config::keys::<SlabBoxConfig>()),
+    ]
 }
 
 /// `smokelab experiment`.
@@ -328,72 +310,49 @@ pub fn execute(cli: Cli) -> Result<()> {
     }
 }
 
+/// `smokelab run`: the scenario registry, one line per scenario.
 fn run_scenario(args: &RunArgs) -> Result<()> {
-    init_threads(args.threads)?;
     match args.scenario {
-        ScenarioKind::HotCold => {
-            let config = args.hot_cold_config()?;
-            let out = args
-                .out
-                .clone()
-                .unwrap_or_else(|| default_run_dir("hot-cold"));
-            io::check_output_dir(&out)?;
-            let render = frame_render(args, &config)?;
-            let mut sim = config.build()?;
-            io::create_output_dir(&out)?;
-            let opts = RunOptions {
-                out: out.clone(),
-                frames: config.frames,
-                save: SaveFrames::Every(config.save_every),
-                progress: !args.quiet,
-                metrics_every: config.metrics_every,
-                sample_res: config.sample_res,
-                render,
-            };
-            let summary = run::run(&mut sim, &opts, &config, config.seed)?;
-            println!(
-                "hot-cold ({} density): {} steps at {}³ in {:.1} s; wrote {}",
-                config.density,
-                config.frames,
-                config.res,
-                summary.wall_seconds,
-                out.display()
-            );
-        }
-        ScenarioKind::SlabBox => {
-            let config = args.slab_box_config()?;
-            if args.render {
-                return Err(InputError::new(
-                    "--render is not available for slab-box yet; use the slices (preview_NNNN.png) or `smokelab render` on the volumes",
-                )
-                .into());
-            }
-            let out = args
-                .out
-                .clone()
-                .unwrap_or_else(|| default_run_dir("slab-box"));
-            io::check_output_dir(&out)?;
-            let mut sim = config.build()?;
-            io::create_output_dir(&out)?;
-            let opts = RunOptions {
-                out: out.clone(),
-                frames: config.frames,
-                save: SaveFrames::Every(config.save_every),
-                progress: !args.quiet,
-                metrics_every: args.metrics_every.unwrap_or(1),
-                sample_res: None,
-                render: None,
-            };
-            let summary = run::run(&mut sim, &opts, &config, config.seed)?;
-            println!(
-                "slab-box: {} steps at {}³ in {:.1} s; wrote {}",
-                config.frames,
-                config.res,
-                summary.wall_seconds,
-                out.display()
-            );
-        }
+        ScenarioKind::HotCold => run_config(args, &args.resolve::<HotColdConfig>()?),
+        ScenarioKind::SlabBox => run_config(args, &args.resolve::<SlabBoxConfig>()?),
     }
+}
+
+/// Run the resolved configuration of any scenario (or print it).
+fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
+    if args.print_config {
+        print!(
+            "{}",
+            toml::to_string(config).expect("a configuration serializes to TOML")
+        );
+        return Ok(());
+    }
+    let s = config.solver();
+    init_threads(s.threads)?;
+    let out = args.out.clone().unwrap_or_else(|| default_run_dir(C::NAME));
+    io::check_output_dir(&out)?;
+    let render = frame_render(args, s)?;
+    let mut sim = config.build()?;
+    io::create_output_dir(&out)?;
+    let opts = RunOptions {
+        out: out.clone(),
+        frames: s.frames,
+        save: SaveFrames::Every(s.save_every),
+        progress: !args.quiet,
+        metrics_every: s.metrics_every,
+        sample_res: s.sample_res,
+        render,
+    };
+    let summary = run::run(&mut sim, &opts, config, s.seed)?;
+    println!(
+        "{} ({} density): {} steps at {}³ in {:.1} s; wrote {}",
+        C::NAME,
+        s.density,
+        s.frames,
+        s.res,
+        summary.wall_seconds,
+        out.display()
+    );
     Ok(())
 }
 
@@ -522,7 +481,7 @@ fn run_all_experiments(
 /// The renders `smokelab run hot-cold --render [--render-every K]
 /// [--image WxH] [--march-step S]` asks for (`None` without `--render`).
 /// K defaults to the run's `save_every`; the default image is 256×256.
-fn frame_render(args: &RunArgs, config: &HotColdConfig) -> Result<Option<FrameRender>, InputError> {
+fn frame_render(args: &RunArgs, config: &SolverConfig) -> Result<Option<FrameRender>, InputError> {
     if !args.render {
         return Ok(None);
     }

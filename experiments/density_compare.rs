@@ -15,6 +15,8 @@
 //!   itself at every march sample would cost (pixels × samples × steps)
 //!   walks, minutes per frame; the 2× cache keeps every mode on equal terms.
 
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -51,7 +53,10 @@ impl ModeRun {
         Self {
             label: mode.name().into(),
             config: HotColdConfig {
-                density: mode,
+                solver: SolverConfig {
+                    density: mode,
+                    ..base.clone().solver
+                },
                 ..base.clone()
             },
         }
@@ -63,7 +68,10 @@ impl ModeRun {
         Self {
             label: "gridless-smooth".into(),
             config: HotColdConfig {
-                density: DensityMode::Gridless,
+                solver: SolverConfig {
+                    density: DensityMode::Gridless,
+                    ..base.clone().solver
+                },
                 source_edge: edge,
                 ..base.clone()
             },
@@ -75,8 +83,11 @@ impl ModeRun {
         Self {
             label: "selma-fine".into(),
             config: HotColdConfig {
-                density: DensityMode::Selma,
-                map_res: Some(factor * base.res),
+                solver: SolverConfig {
+                    density: DensityMode::Selma,
+                    map_res: Some(factor * base.solver.res),
+                    ..base.clone().solver
+                },
                 ..base.clone()
             },
         }
@@ -177,15 +188,15 @@ pub(crate) fn run_mode(
     io::create_output_dir(&dir)?;
     let opts = RunOptions {
         out: dir.clone(),
-        frames: config.frames,
+        frames: config.solver.frames,
         save: SaveFrames::List(capture.to_vec()),
         progress: ctx.progress,
-        metrics_every: config.metrics_every,
+        metrics_every: config.solver.metrics_every,
         sample_res: None,
         render: None,
     };
     let mut frames = Vec::new();
-    run::run_with(&mut sim, &opts, config, config.seed, |sim, _| {
+    run::run_with(&mut sim, &opts, config, config.solver.seed, |sim, _| {
         frames.push(Captured {
             slice: slice(sim, look.slice),
             render: render_fine(sim, look.render)?,

@@ -15,6 +15,8 @@
 //! `*_NNNN.npy` (git-ignored).
 
 use anyhow::Result;
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 
 use crate::frames::FrameRender;
 use crate::registry::{Context, Experiment, Size};
@@ -36,35 +38,41 @@ fn run(ctx: &Context) -> Result<()> {
     let base = HotColdConfig::default();
     let config = match ctx.size {
         Size::Smoke => HotColdConfig {
-            res: 16,
-            frames: 12,
+            solver: SolverConfig {
+                res: 16,
+                frames: 12,
+                ..base.solver.clone()
+            },
             ..base
         },
         Size::Default => base,
         Size::Full => HotColdConfig {
-            frames: 2 * base.frames,
+            solver: SolverConfig {
+                frames: 2 * base.solver.frames,
+                ..base.solver.clone()
+            },
             ..base
         },
     };
-    let frames: Vec<usize> = (1..=6).map(|i| i * config.frames / 6).collect();
+    let frames: Vec<usize> = (1..=6).map(|i| i * config.solver.frames / 6).collect();
     let render = FrameRender::new(
         SaveFrames::List(frames.clone()),
         (256, 256),
         None,
-        &config.domain()?,
+        &config.solver.domain()?,
     )?;
     let mut sim = config.build()?;
     io::create_output_dir(&ctx.out)?;
     let opts = RunOptions {
         out: ctx.out.clone(),
-        frames: config.frames,
+        frames: config.solver.frames,
         save: SaveFrames::List(frames),
         progress: ctx.progress,
-        metrics_every: config.metrics_every,
-        sample_res: config.sample_res,
+        metrics_every: config.solver.metrics_every,
+        sample_res: config.solver.sample_res,
         render: Some(render),
     };
-    let summary = run::run(&mut sim, &opts, &config, config.seed)?;
+    let summary = run::run(&mut sim, &opts, &config, config.solver.seed)?;
     let strip = |paths: &mut dyn Iterator<Item = &std::path::PathBuf>| {
         let images = paths
             .map(|p| Ok(image::open(p)?.to_rgb8()))

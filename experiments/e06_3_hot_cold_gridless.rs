@@ -22,6 +22,8 @@
 //! mode with its `metrics.csv` and `manifest.json` (volumes git-ignored).
 
 use anyhow::Result;
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 
 use crate::density_compare::{self as dc, Look, ModeRun};
 use crate::registry::{Context, Experiment, Size};
@@ -45,9 +47,12 @@ fn run(ctx: &Context) -> Result<()> {
     let (config, look) = match ctx.size {
         Size::Smoke => (
             HotColdConfig {
-                res: 16,
-                frames: 12,
-                metrics_every: 4,
+                solver: SolverConfig {
+                    res: 16,
+                    frames: 12,
+                    metrics_every: 4,
+                    ..base.solver.clone()
+                },
                 ..base
             },
             Look {
@@ -57,8 +62,11 @@ fn run(ctx: &Context) -> Result<()> {
         ),
         Size::Default => (
             HotColdConfig {
-                frames: 100,
-                metrics_every: 10,
+                solver: SolverConfig {
+                    frames: 100,
+                    metrics_every: 10,
+                    ..base.solver.clone()
+                },
                 ..base
             },
             Look {
@@ -68,7 +76,10 @@ fn run(ctx: &Context) -> Result<()> {
         ),
         Size::Full => (
             HotColdConfig {
-                metrics_every: 10,
+                solver: SolverConfig {
+                    metrics_every: 10,
+                    ..base.solver.clone()
+                },
                 ..base
             },
             Look {
@@ -77,7 +88,7 @@ fn run(ctx: &Context) -> Result<()> {
             },
         ),
     };
-    let capture: Vec<usize> = (1..=6).map(|i| i * config.frames / 6).collect();
+    let capture: Vec<usize> = (1..=6).map(|i| i * config.solver.frames / 6).collect();
     let modes = [
         ModeRun::new(&config, DensityMode::Gridless),
         ModeRun::new(&config, DensityMode::Gridded),
@@ -123,7 +134,7 @@ fn run(ctx: &Context) -> Result<()> {
         &ctx.out.join("manifest.json"),
         &Manifest::new(
             &config,
-            config.seed,
+            config.solver.seed,
             start.elapsed().as_secs_f64(),
             serde_json::json!({ "captured_frames": capture, "summary": summary }),
         ),

@@ -24,6 +24,8 @@
 //! `manifest.json`, and one folder per mode with its `metrics.csv`.
 
 use anyhow::Result;
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 
 use crate::density_compare::{self as dc, Look, ModeRun};
 use crate::registry::{Context, Experiment, Size};
@@ -51,9 +53,12 @@ fn run(ctx: &Context) -> Result<()> {
     let (config, look) = match ctx.size {
         Size::Smoke => (
             HotColdConfig {
-                res: 16,
-                frames: 12,
-                metrics_every: 4,
+                solver: SolverConfig {
+                    res: 16,
+                    frames: 12,
+                    metrics_every: 4,
+                    ..base.solver.clone()
+                },
                 ..base
             },
             Look {
@@ -63,9 +68,12 @@ fn run(ctx: &Context) -> Result<()> {
         ),
         Size::Default => (
             HotColdConfig {
-                res: 40,
-                frames: 100,
-                metrics_every: 10,
+                solver: SolverConfig {
+                    res: 40,
+                    frames: 100,
+                    metrics_every: 10,
+                    ..base.solver.clone()
+                },
                 ..base
             },
             Look {
@@ -75,7 +83,10 @@ fn run(ctx: &Context) -> Result<()> {
         ),
         Size::Full => (
             HotColdConfig {
-                metrics_every: 10,
+                solver: SolverConfig {
+                    metrics_every: 10,
+                    ..base.solver.clone()
+                },
                 ..base
             },
             Look {
@@ -84,7 +95,7 @@ fn run(ctx: &Context) -> Result<()> {
             },
         ),
     };
-    let capture: Vec<usize> = (1..=4).map(|i| i * config.frames / 4).collect();
+    let capture: Vec<usize> = (1..=4).map(|i| i * config.solver.frames / 4).collect();
     let mut modes: Vec<ModeRun> = DensityMode::ALL
         .iter()
         .map(|&m| ModeRun::new(&config, m))
@@ -132,7 +143,7 @@ fn run(ctx: &Context) -> Result<()> {
         &ctx.out.join("manifest.json"),
         &Manifest::new(
             &config,
-            config.seed,
+            config.solver.seed,
             start.elapsed().as_secs_f64(),
             serde_json::json!({
                 "modes": modes.iter().map(|m| &m.label).collect::<Vec<_>>(),

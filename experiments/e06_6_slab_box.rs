@@ -30,6 +30,8 @@
 //! `metrics.csv`, `manifest.json`, `preview_NNNN.png` and the volumes
 //! (`density_NNNN.npy`, `vel_NNNN.npy`, `obstacle.npy`; git-ignored).
 
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 use std::path::Path;
 
 use std::io::Write;
@@ -97,20 +99,23 @@ fn run(ctx: &Context) -> Result<()> {
     let base = SlabBoxConfig::default();
     let (res, frames) = match ctx.size {
         Size::Smoke => (26, 12),
-        Size::Default => (40, base.frames),
-        Size::Full => (50, base.frames),
+        Size::Default => (40, base.solver.frames),
+        Size::Full => (50, base.solver.frames),
     };
     // The notes' frames, scaled to shorter runs.
     let saved: Vec<usize> = FRAMES
         .iter()
-        .map(|&f| (f * frames).div_ceil(base.frames).max(1))
+        .map(|&f| (f * frames).div_ceil(base.solver.frames).max(1))
         .collect();
     let configs: Vec<SlabBoxConfig> = CASES
         .iter()
         .map(|c| SlabBoxConfig {
-            res,
-            frames,
-            advection: c.advection,
+            solver: SolverConfig {
+                res,
+                frames,
+                advection: c.advection,
+                ..base.clone().solver
+            },
             boundary: c.rule,
             alpha: c.alpha,
             ..base.clone()
@@ -133,17 +138,17 @@ fn run(ctx: &Context) -> Result<()> {
         io::create_output_dir(&out)?;
         let opts = RunOptions {
             out: out.clone(),
-            frames: config.frames,
+            frames: config.solver.frames,
             save: SaveFrames::List(saved.clone()),
             progress: ctx.progress,
             metrics_every: 1,
             sample_res: None,
             render: None,
         };
-        let summary = run::run(&mut sim, &opts, config, config.seed)?;
+        let summary = run::run(&mut sim, &opts, config, config.solver.seed)?;
         let m = column_stats(&out.join("metrics.csv"))?;
         let gas = &sim.gases[0];
-        let injected = gas.injected_per_step(config.dt) * frames as f64;
+        let injected = gas.injected_per_step(config.solver.dt) * frames as f64;
         let reference = reference.get_or_insert_with(|| gas.density().clone());
         data.push_str(&format!(
             "{},{res},{frames},{},{:.6e},{:.6e},{:.6e},{:.6},{:.6},{:.4},{:.1},{:.2}\n",
@@ -168,7 +173,7 @@ fn run(ctx: &Context) -> Result<()> {
 
 /// The saved frames of one case as green gas, blue walls and a red slab.
 fn figure_row(config: &SlabBoxConfig, dir: &Path, frames: &[usize]) -> Result<RgbImage> {
-    let domain = config.domain()?;
+    let domain = config.solver.domain()?;
     let solid = |o: Obstacle| {
         let mut g = ScalarGrid::from_field(domain, &AsField(o));
         g.as_slice_mut()

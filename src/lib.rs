@@ -14,9 +14,11 @@
 //!
 //! ```
 //! use smokelab::scenario::hot_cold::HotColdConfig;
-//! let config = HotColdConfig { res: 16, frames: 3, ..Default::default() };
+//! use smokelab::scenario::{Scenario, SolverConfig};
+//! let solver = SolverConfig { res: 16, frames: 3, ..Default::default() };
+//! let config = HotColdConfig { solver, ..Default::default() };
 //! let mut sim = config.build().unwrap();
-//! for _ in 0..config.frames {
+//! for _ in 0..config.solver.frames {
 //!     sim.step();
 //! }
 //! let div = smokelab::metrics::divergence_stats(&sim.velocity);

@@ -4,6 +4,8 @@
 //! on mass with sources, memory behaves as designed, and the gridded path is
 //! bit-identical to the foundation's step.
 
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 use std::f32::consts::TAU;
 use std::sync::Arc;
 
@@ -263,13 +265,16 @@ fn selma_converges_to_gridless_as_the_map_refines() {
 /// Hot mass of a hot/cold run at 32³ after 30 steps, fine-sampled.
 fn hot_mass(mode: DensityMode) -> f64 {
     let config = HotColdConfig {
-        res: 32,
-        frames: 30,
-        density: mode,
+        solver: SolverConfig {
+            res: 32,
+            frames: 30,
+            density: mode,
+            ..SolverConfig::default()
+        },
         ..Default::default()
     };
     let mut sim = config.build().unwrap();
-    for _ in 0..config.frames {
+    for _ in 0..config.solver.frames {
         sim.step();
     }
     DensityProbe::new(*sim.domain())
@@ -295,9 +300,12 @@ fn with_sources_selma_and_gridless_agree_on_mass_and_gridless_keeps_more_than_gr
 #[test]
 fn gridless_memory_grows_by_one_velocity_grid_per_step_and_selma_memory_is_constant() {
     let config = |density| HotColdConfig {
-        res: 16,
-        frames: 40,
-        density,
+        solver: SolverConfig {
+            res: 16,
+            frames: 40,
+            density,
+            ..SolverConfig::default()
+        },
         ..Default::default()
     };
     let mut gridless = config(DensityMode::Gridless).build().unwrap();
@@ -343,7 +351,7 @@ struct FoundationStep {
 
 impl FoundationStep {
     fn new(config: &HotColdConfig) -> Self {
-        let d = config.domain().unwrap();
+        let d = config.solver.domain().unwrap();
         let source = |c| ScalarGrid::from_field(d, &*ops::mask(ops::sphere(c, config.radius)));
         Self {
             velocity: VectorGrid::zeros(d),
@@ -368,8 +376,9 @@ impl FoundationStep {
     }
 
     fn step(&mut self, config: &HotColdConfig) {
-        let dt = config.dt;
-        self.departures.trace(&self.velocity, dt, config.backtrace);
+        let dt = config.solver.dt;
+        self.departures
+            .trace(&self.velocity, dt, config.solver.backtrace);
         for (rho, scratch, source, _) in &mut self.densities {
             advection::interpolate_scalar(rho, &self.departures, scratch);
             std::mem::swap(rho, scratch);
@@ -379,7 +388,7 @@ impl FoundationStep {
         }
         advection::interpolate_vector(&self.velocity, &self.departures, &mut self.scratch);
         std::mem::swap(&mut self.velocity, &mut self.scratch);
-        let gravity = Vec3::new(0.0, -config.gravity, 0.0);
+        let gravity = Vec3::new(0.0, -config.solver.gravity, 0.0);
         for (n, u) in self.velocity.as_vec3_mut().iter_mut().enumerate() {
             let mut lift = 0.0;
             for (rho, _, _, l) in &self.densities {
@@ -387,20 +396,24 @@ impl FoundationStep {
             }
             *u -= dt * lift * gravity;
         }
-        self.projection.project(&mut self.velocity, config.nu, dt);
+        self.projection
+            .project(&mut self.velocity, config.solver.nu, dt);
     }
 }
 
 #[test]
 fn gridded_results_are_bit_identical_to_the_foundation_step() {
     let config = HotColdConfig {
-        res: 24,
-        frames: 25,
+        solver: SolverConfig {
+            res: 24,
+            frames: 25,
+            ..SolverConfig::default()
+        },
         ..Default::default()
     };
     let mut sim = config.build().unwrap();
     let mut reference = FoundationStep::new(&config);
-    for _ in 0..config.frames {
+    for _ in 0..config.solver.frames {
         sim.step();
         reference.step(&config);
     }
@@ -415,13 +428,16 @@ fn gridded_results_are_bit_identical_to_the_foundation_step() {
 fn every_mode_runs_and_its_field_snapshot_matches_its_cell_centres() {
     for mode in DensityMode::ALL {
         let config = HotColdConfig {
-            res: 16,
-            frames: 12,
-            density: mode,
+            solver: SolverConfig {
+                res: 16,
+                frames: 12,
+                density: mode,
+                ..SolverConfig::default()
+            },
             ..Default::default()
         };
         let mut sim = config.build().unwrap();
-        for _ in 0..config.frames {
+        for _ in 0..config.solver.frames {
             sim.step();
         }
         let d = *sim.domain();

@@ -4,6 +4,8 @@ use glam::Vec3;
 use smokelab::domain::Domain;
 use smokelab::grid::VectorGrid;
 use smokelab::scenario::hot_cold::HotColdConfig;
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 use smokelab::simulation::{Simulation, StepParams};
 
 /// `u = A sin x cos y, v = −A cos x sin y` on a `2π`-periodic box.
@@ -62,8 +64,11 @@ fn taylor_green_decays_as_exp_minus_two_nu_t() {
 #[test]
 fn hot_cold_is_mirror_symmetric_and_buoyant() {
     let config = HotColdConfig {
-        res: 32,
-        frames: 20,
+        solver: SolverConfig {
+            res: 32,
+            frames: 20,
+            ..SolverConfig::default()
+        },
         ..Default::default()
     };
     let mut sim = config.build().unwrap();
@@ -73,7 +78,7 @@ fn hot_cold_is_mirror_symmetric_and_buoyant() {
         sim.gases[0].density().center_of_mass(),
         sim.gases[1].density().center_of_mass(),
     );
-    for _ in 1..config.frames {
+    for _ in 1..config.solver.frames {
         sim.step();
     }
     let (hot, cold) = (sim.gases[0].density(), sim.gases[1].density());
@@ -84,7 +89,10 @@ fn hot_cold_is_mirror_symmetric_and_buoyant() {
         .chain(cold.as_slice())
         .all(|v| v.is_finite()));
     let err = smokelab::metrics::mirror_error(hot, cold);
-    println!("mirror error after {} steps: {err:.3e}", config.frames);
+    println!(
+        "mirror error after {} steps: {err:.3e}",
+        config.solver.frames
+    );
     assert!(
         err <= 1e-4,
         "hot and mirrored cold differ by {err} (relative)"

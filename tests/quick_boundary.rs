@@ -7,6 +7,9 @@ use smokelab::domain::Domain;
 use smokelab::field::{ops, ScalarField};
 use smokelab::fit::observed_order;
 use smokelab::grid::{ScalarGrid, VectorGrid};
+use smokelab::scenario::config::resolve;
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 
 /// A smooth periodic profile on the unit square (constant along z).
 struct Smooth(Vec3);
@@ -254,10 +257,13 @@ fn random_velocity(d: Domain) -> VectorGrid {
 #[test]
 fn boundary_step_reflects_and_sticks_exactly() {
     let config = SlabBoxConfig {
-        res: 32,
+        solver: SolverConfig {
+            res: 32,
+            ..SlabBoxConfig::default_solver()
+        },
         ..Default::default()
     };
-    let d = config.domain().unwrap();
+    let d = config.solver.domain().unwrap();
     let obstacle = config.obstacle();
     for (rule, alpha) in [
         (BoundaryRule::Reflect, 1.0),
@@ -313,9 +319,12 @@ fn fluid_at_rest_next_to_obstacles_stays_at_rest() {
     for advection in Scheme::ALL {
         for boundary in BoundaryRule::ALL {
             let config = SlabBoxConfig {
-                res: 26,
-                gravity: 0.0,
-                advection,
+                solver: SolverConfig {
+                    res: 26,
+                    gravity: 0.0,
+                    advection,
+                    ..SlabBoxConfig::default_solver()
+                },
                 boundary,
                 boundary_passes: 2,
                 ..Default::default()
@@ -325,7 +334,7 @@ fn fluid_at_rest_next_to_obstacles_stays_at_rest() {
                 sim.try_step().unwrap();
             }
             assert_eq!(sim.velocity.max_norm(), 0.0, "{advection:?} {boundary:?}");
-            let injected = sim.gases[0].injected_per_step(config.dt) * 5.0;
+            let injected = sim.gases[0].injected_per_step(config.solver.dt) * 5.0;
             let mass = sim.gases[0].density().total();
             assert!(
                 (mass - injected).abs() < 1e-5 * injected,
@@ -345,16 +354,19 @@ fn slab_box_obstacles_hold() {
         (Scheme::Sl, BoundaryRule::Reflect),
     ] {
         let config = SlabBoxConfig {
-            res: 32,
-            frames: 30,
+            solver: SolverConfig {
+                res: 32,
+                frames: 30,
+                advection,
+                ..SlabBoxConfig::default_solver()
+            },
             source_center: [4.2, 4.0, 5.0],
-            advection,
             boundary,
             ..Default::default()
         };
         let mut sim = config.build().unwrap();
         let mut worst = (0.0f64, 0.0f32);
-        for _ in 0..config.frames {
+        for _ in 0..config.solver.frames {
             sim.try_step().unwrap();
             let b = sim.boundary.as_ref().unwrap();
             let leak = b.leak(&sim.velocity, &[sim.gases[0].density()]);
@@ -373,7 +385,8 @@ fn slab_box_obstacles_hold() {
                 .max(leak.rim_inward.rms / leak.u_rms.max(f32::MIN_POSITIVE));
         }
         let mass = sim.gases[0].density().total();
-        let injected = sim.gases[0].injected_per_step(config.dt) * config.frames as f64;
+        let injected =
+            sim.gases[0].injected_per_step(config.solver.dt) * config.solver.frames as f64;
         println!(
             "{advection:?} {boundary:?}: deep obstacle mass fraction ≤ {:.2e}, rim inward ≤ {:.2e} rms|u|, \
              max|u| {:.3}, mass {mass:.4} of {injected:.4} injected",
@@ -409,9 +422,12 @@ fn slab_box_obstacles_hold() {
 #[test]
 fn hot_cold_quick_is_mirror_symmetric() {
     let config = HotColdConfig {
-        res: 32,
-        frames: 20,
-        advection: Scheme::Quick,
+        solver: SolverConfig {
+            res: 32,
+            frames: 20,
+            advection: Scheme::Quick,
+            ..SolverConfig::default()
+        },
         ..Default::default()
     };
     let mut sim = config.build().unwrap();
@@ -419,14 +435,14 @@ fn hot_cold_quick_is_mirror_symmetric() {
         sim.step();
         sim.gases[0].density().center_of_mass()
     };
-    for _ in 1..config.frames {
+    for _ in 1..config.solver.frames {
         sim.step();
     }
     let (hot, cold) = (sim.gases[0].density(), sim.gases[1].density());
     let err = smokelab::metrics::mirror_error(hot, cold);
     println!(
         "QUICK mirror error after {} steps: {err:.3e}",
-        config.frames
+        config.solver.frames
     );
     assert!(err <= 1e-4, "mirror error {err}");
     assert!(
@@ -456,11 +472,14 @@ fn boundary_projection_interplay_table() {
     for advection in Scheme::ALL {
         for passes in [1usize, 2, 4, 8] {
             let config = SlabBoxConfig {
-                res: 32,
-                frames: 80,
+                solver: SolverConfig {
+                    res: 32,
+                    frames: 80,
+                    advection,
+                    ..SlabBoxConfig::default_solver()
+                },
                 source_center: [4.2, 4.0, 5.0],
                 boundary_passes: passes,
-                advection,
                 ..Default::default()
             };
             let mut sim = config.build().unwrap();
@@ -468,15 +487,15 @@ fn boundary_projection_interplay_table() {
             let (mut div, mut div_max, mut inward, mut deep, mut n) =
                 (0.0f64, 0.0f32, 0.0f64, 0.0f64, 0);
             let start = std::time::Instant::now();
-            for step in 0..config.frames {
+            for step in 0..config.solver.frames {
                 sim.try_step().unwrap();
-                if step < config.frames / 2 {
+                if step < config.solver.frames / 2 {
                     continue;
                 }
                 let b = sim.boundary.as_ref().unwrap();
                 let leak = b.leak(&sim.velocity, &[sim.gases[0].density()]);
                 let mut v = sim.velocity.clone();
-                proj.project(&mut v, 0.0, config.dt);
+                proj.project(&mut v, 0.0, config.solver.dt);
                 div += leak.div_fluid.rms as f64;
                 div_max = div_max.max(leak.div_fluid.max);
                 inward += (b.rim_inward(&v).rms / v.rms_norm()) as f64;
@@ -488,7 +507,7 @@ fn boundary_projection_interplay_table() {
                 format!("{advection:?}"),
                 div / n as f64,
                 inward / n as f64,
-                start.elapsed().as_secs_f64() * 1e3 / config.frames as f64
+                start.elapsed().as_secs_f64() * 1e3 / config.solver.frames as f64
             );
         }
     }
@@ -496,19 +515,25 @@ fn boundary_projection_interplay_table() {
 
 #[test]
 fn advection_and_boundary_are_config_keys() {
-    let c: HotColdConfig =
-        toml::from_str("advection = \"quick\"\nsubsteps = false\nlimiter = \"none\"\n").unwrap();
-    assert_eq!(
-        (c.advection, c.substeps, c.limiter),
-        (Scheme::Quick, false, Limiter::None)
-    );
-    let c: SlabBoxConfig = toml::from_str(
-        "advection = \"sl\"\nboundary = \"sticky\"\nalpha = 0.25\nboundary_passes = 2\n",
+    let layer = |text: &str| vec![("test".to_string(), toml::from_str(text).unwrap())];
+    let c: HotColdConfig = resolve(
+        &layer("advection = \"quick\"\nsubsteps = false\nlimiter = \"none\"\n"),
+        &[],
     )
     .unwrap();
     assert_eq!(
-        (c.advection, c.boundary, c.alpha, c.boundary_passes),
+        (c.solver.advection, c.solver.substeps, c.solver.limiter),
+        (Scheme::Quick, false, Limiter::None)
+    );
+    let c: SlabBoxConfig = resolve(
+        &layer("advection = \"sl\"\nboundary = \"sticky\"\nalpha = 0.25\nboundary_passes = 2\n"),
+        &[],
+    )
+    .unwrap();
+    assert_eq!(
+        (c.solver.advection, c.boundary, c.alpha, c.boundary_passes),
         (Scheme::Sl, BoundaryRule::Sticky, 0.25, 2)
     );
-    assert!(toml::from_str::<SlabBoxConfig>("boundary = \"bouncy\"\n").is_err());
+    let bad = resolve::<SlabBoxConfig>(&layer("boundary = \"bouncy\"\n"), &[]).unwrap_err();
+    assert!(bad.to_string().contains("boundary = \"bouncy\" (test)"), "{bad}");
 }

@@ -9,6 +9,8 @@
 //! Run: `cargo bench --bench density` (a few minutes; the warm-up of the
 //! 50³ gridless runs dominates).
 
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion, Throughput};
@@ -19,8 +21,11 @@ use smokelab::simulation::Simulation;
 /// A hot/cold simulation at `res`³ held as `mode`, stepped `steps` times.
 fn warmed(res: usize, mode: DensityMode, steps: usize) -> Simulation {
     let config = HotColdConfig {
-        res,
-        density: mode,
+        solver: SolverConfig {
+            res,
+            density: mode,
+            ..SolverConfig::default()
+        },
         ..Default::default()
     };
     let mut sim = config.build().expect("valid config");

@@ -6,6 +6,8 @@
 //!
 //! Run: `cargo bench --bench render` (about a minute on 2 cores).
 
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -16,11 +18,14 @@ use smokelab_app::frames::simulation_scene;
 
 fn bench_render(c: &mut Criterion) {
     let config = HotColdConfig {
-        frames: 100,
+        solver: SolverConfig {
+            frames: 100,
+            ..SolverConfig::default()
+        },
         ..Default::default()
     };
     let mut sim = config.build().expect("default config is valid");
-    for _ in 0..config.frames {
+    for _ in 0..config.solver.frames {
         sim.step();
     }
     let scene = simulation_scene(&sim);

@@ -9,11 +9,16 @@ use smokelab::advection::{
 use smokelab::grid::ScalarGrid;
 use smokelab::projection::Projection;
 use smokelab::scenario::hot_cold::HotColdConfig;
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 
 /// A hot/cold simulation at `res`³ stepped until the gases move.
 fn warmed(res: usize) -> smokelab::simulation::Simulation {
     let config = HotColdConfig {
-        res,
+        solver: SolverConfig {
+            res,
+            ..SolverConfig::default()
+        },
         ..Default::default()
     };
     let mut sim = config.build().expect("valid config");

@@ -4,6 +4,8 @@ mod common;
 
 use common::smokelab;
 use smokelab::scenario::hot_cold::HotColdConfig;
+use smokelab::scenario::Scenario;
+use smokelab::scenario::SolverConfig;
 
 #[test]
 fn a_gridless_run_too_big_for_memory_is_refused_with_its_estimate() {
@@ -32,8 +34,11 @@ fn a_gridless_run_too_big_for_memory_is_refused_with_its_estimate() {
     assert!(!dir.path().join("out").exists());
     // The same run gridded fits.
     let cfg = HotColdConfig {
-        res: 64,
-        frames: 1_000_000,
+        solver: SolverConfig {
+            res: 64,
+            frames: 1_000_000,
+            ..SolverConfig::default()
+        },
         ..Default::default()
     };
     assert!(cfg.validate().is_ok());

@@ -1,17 +1,21 @@
 //! Scenarios: initial state, sources, forces and parameters with defaults.
 
+pub mod config;
 pub mod hot_cold;
 pub mod slab_box;
 pub mod sphere_wall;
 
 use serde::{Deserialize, Serialize};
 
+pub use config::{Scenario, SolverConfig};
+
 /// The scenarios `smokelab run` knows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum ScenarioKind {
     /// Hot gas rising from below, cold gas sinking from above (§6.1.1, figs 6.1–6.2).
+    #[default]
     HotCold,
     /// Buoyant gas in a closed box flowing around a slab (§6.3, fig 6.6).
     SlabBox,

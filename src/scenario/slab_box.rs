@@ -15,43 +15,36 @@
 //! plume reaches the slab, spreads under it, spills round its edges and fills
 //! the upper box.
 
-use std::path::Path;
 use std::sync::Arc;
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::advection::{AdvectionOptions, Backtrace, Limiter, QuickOptions, Scheme};
+use super::{Scenario, SolverConfig};
+use crate::advection::Scheme;
 use crate::boundary::{
     Boundary, BoundaryOptions, BoundaryRule, Cuboid, LevelSet, Obstacle, Union, Walls,
 };
-use crate::domain::Domain;
-use crate::error::InputError;
+use crate::density::DensityMode;
+use crate::error::{check_positive, InputError};
 use crate::field::ops;
-use crate::simulation::{Gas, Simulation, StepParams};
+use crate::simulation::{Gas, Simulation};
 
-/// Parameters of a slab-box run. Every field has a default; a TOML file may
-/// set any subset, and unknown keys are an error.
+/// Parameters of a slab-box run: the solver's, the source's and the
+/// obstacles'. Every key has a default.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
 pub struct SlabBoxConfig {
-    /// Cells per axis.
-    pub res: usize,
-    /// Edge length L of the cubic domain, world units.
-    pub size: f32,
-    /// Number of time steps (one step per frame; the notes show 200).
-    pub frames: usize,
-    /// Time step Δt.
-    pub dt: f32,
-    /// Kinematic viscosity ν.
-    pub nu: f32,
-    /// Magnitude of gravity; g⃗ = (0, −g, 0).
-    pub gravity: f32,
+    /// Resolution, time step, schemes, cadence, seed (defaults: see
+    /// [`SlabBoxConfig::default_solver`]).
+    #[serde(flatten)]
+    pub solver: SolverConfig,
     /// Radius of the injection sphere.
     pub radius: f32,
     /// Centre of the injection sphere.
     pub source_center: [f32; 3],
-    /// Thickness of the box walls (at least two cells).
+    /// Thickness of the box walls, world units: at least two cells and less
+    /// than a quarter of the box (the default 0.8 is four cells at 50³, two
+    /// at 25³).
     pub wall: f32,
     /// Lower corner of the slab.
     pub slab_min: [f32; 3],
@@ -63,29 +56,12 @@ pub struct SlabBoxConfig {
     pub alpha: f32,
     /// Boundary-rule/projection pairs per step.
     pub boundary_passes: usize,
-    /// Semi-Lagrangian backtrace.
-    pub backtrace: Backtrace,
-    /// Advection scheme for velocity and density (`sl` or `quick`).
-    pub advection: Scheme,
-    /// QUICK: split steps beyond the CFL bound into sub-steps (false: refuse them).
-    pub substeps: bool,
-    /// QUICK: limiter for the density.
-    pub limiter: Limiter,
-    /// Write volumes and a preview every this many frames (0: metrics only).
-    pub save_every: usize,
-    /// Random seed (recorded; the scenario itself is deterministic).
-    pub seed: u64,
 }
 
 impl Default for SlabBoxConfig {
     fn default() -> Self {
         Self {
-            res: 50,
-            size: 10.0,
-            frames: 200,
-            dt: 0.1,
-            nu: 0.0,
-            gravity: 1.0,
+            solver: Self::default_solver(),
             radius: 1.0,
             source_center: [4.2, 2.0, 5.0],
             wall: 0.8,
@@ -94,12 +70,6 @@ impl Default for SlabBoxConfig {
             boundary: BoundaryRule::Reflect,
             alpha: 0.5,
             boundary_passes: 4,
-            backtrace: Backtrace::Rk2,
-            advection: Scheme::Quick,
-            substeps: true,
-            limiter: Limiter::Ultimate,
-            save_every: 10,
-            seed: 0,
         }
     }
 }
@@ -110,22 +80,15 @@ impl Default for SlabBoxConfig {
 const BYTES_PER_CELL: u64 = 160;
 
 impl SlabBoxConfig {
-    /// Read a TOML file; unknown keys and malformed values are errors.
-    pub fn from_toml_file(path: &Path) -> Result<Self, InputError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| InputError::new(format!("cannot read config {}: {e}", path.display())))?;
-        toml::from_str(&text).map_err(|e| {
-            InputError::new(format!(
-                "config {} is not a valid slab-box config: {}",
-                path.display(),
-                e.message()
-            ))
-        })
-    }
-
-    /// The cubic domain `[0, size]³` with `res` cells per axis.
-    pub fn domain(&self) -> Result<Domain, InputError> {
-        Domain::cube(self.res, self.size)
+    /// The solver defaults of fig 6.6: 50³ in a cube of edge 10, Δt 0.1,
+    /// 200 frames, QUICK advection, gridded density.
+    pub fn default_solver() -> SolverConfig {
+        SolverConfig {
+            frames: 200,
+            dt: 0.1,
+            advection: Scheme::Quick,
+            ..SolverConfig::default()
+        }
     }
 
     /// The box walls: solid outside `[wall, size − wall]³`.
@@ -133,7 +96,7 @@ impl SlabBoxConfig {
         Walls {
             interior: Cuboid {
                 min: Vec3::splat(self.wall),
-                max: Vec3::splat(self.size - self.wall),
+                max: Vec3::splat(self.solver.size - self.wall),
             },
         }
     }
@@ -160,30 +123,28 @@ impl SlabBoxConfig {
         }
     }
 
-    /// The advection options these parameters select.
-    pub fn advection_options(&self) -> AdvectionOptions {
-        AdvectionOptions {
-            scheme: self.advection,
-            quick: QuickOptions {
-                substeps: self.substeps,
-                ..Default::default()
-            },
-            density_limiter: self.limiter,
-        }
-    }
-
     /// Estimated bytes the run holds in memory.
     pub fn memory_estimate(&self) -> u64 {
-        (self.res as u64).pow(3) * BYTES_PER_CELL
+        (self.solver.res as u64)
+            .saturating_pow(3)
+            .saturating_mul(BYTES_PER_CELL)
+    }
+}
+
+impl Scenario for SlabBoxConfig {
+    const NAME: &'static str = "slab-box";
+
+    fn solver(&self) -> &SolverConfig {
+        &self.solver
     }
 
-    /// Check every parameter; the message names the bad value and what is valid.
-    pub fn validate(&self) -> Result<(), InputError> {
-        if self.res < crate::domain::MIN_CELLS {
+    fn validate(&self) -> Result<(), InputError> {
+        let s = &self.solver;
+        s.validate()?;
+        if s.density != DensityMode::Gridded {
             return Err(InputError::new(format!(
-                "resolution {} is too small; it must be at least {}",
-                self.res,
-                crate::domain::MIN_CELLS
+                "density {} is not available for slab-box: its gas is held on the grid (density gridded); obstacles for gridless and SELMA tracers are not built yet",
+                s.density
             )));
         }
         if let Some(avail) = crate::timing::available_memory_bytes() {
@@ -191,44 +152,21 @@ impl SlabBoxConfig {
             if need > avail {
                 return Err(InputError::new(format!(
                     "resolution {} needs about {:.1} GiB but only {:.1} GiB is available; use a smaller --res",
-                    self.res,
+                    s.res,
                     need as f64 / 2f64.powi(30),
                     avail as f64 / 2f64.powi(30)
                 )));
             }
         }
-        let positive = |name: &str, v: f32| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(InputError::new(format!(
-                    "{name} is {v}; it must be a positive finite number"
-                )))
-            }
-        };
-        positive("dt", self.dt)?;
-        positive("size", self.size)?;
-        positive("radius", self.radius)?;
-        if !(self.nu.is_finite() && self.nu >= 0.0) {
-            return Err(InputError::new(format!(
-                "nu is {}; it must be a finite number ≥ 0",
-                self.nu
-            )));
-        }
-        if !self.gravity.is_finite() {
-            return Err(InputError::new(format!(
-                "gravity is {}; it must be finite",
-                self.gravity
-            )));
-        }
+        check_positive("radius", self.radius)?;
         self.boundary_options().validate()?;
-        let cell = self.size / self.res as f32;
-        if !(self.wall >= 2.0 * cell && self.wall < 0.25 * self.size) {
+        let cell = s.size / s.res as f32;
+        if !(self.wall >= 2.0 * cell && self.wall < 0.25 * s.size) {
             return Err(InputError::new(format!(
-                "wall is {}; it must be at least two cells ({}) and less than a quarter of the box ({})",
+                "wall is {}; it must be at least two cells ({}) and less than a quarter of the box ({}): set the key `wall`",
                 self.wall,
                 2.0 * cell,
-                0.25 * self.size
+                0.25 * s.size
             )));
         }
         let interior = self.walls().interior;
@@ -245,7 +183,7 @@ impl SlabBoxConfig {
                 slab.min,
                 slab.max,
                 self.wall,
-                self.size - self.wall
+                s.size - self.wall
             )));
         }
         let c = Vec3::from(self.source_center);
@@ -258,21 +196,16 @@ impl SlabBoxConfig {
         Ok(())
     }
 
-    /// Build the simulation at rest with the source and obstacles in place.
-    pub fn build(&self) -> Result<Simulation, InputError> {
+    /// The simulation at rest with the source and obstacles in place.
+    fn build(&self) -> Result<Simulation, InputError> {
         self.validate()?;
-        let domain = self.domain()?;
+        let s = &self.solver;
+        let domain = s.domain()?;
         let source = ops::mask(ops::sphere(Vec3::from(self.source_center), self.radius));
         let gases = vec![Gas::new("density", domain, &source, 1.0)];
-        let params = StepParams {
-            dt: self.dt,
-            viscosity: self.nu,
-            gravity: Vec3::new(0.0, -self.gravity, 0.0),
-            backtrace: self.backtrace,
-        };
         let boundary = Boundary::new(domain, &self.obstacle(), self.boundary_options())?;
-        Ok(Simulation::new(domain, params, gases)
-            .with_advection(&self.advection_options())
+        Ok(Simulation::new(domain, s.step_params(), gases)
+            .with_advection(&s.advection_options())
             .with_boundary(boundary))
     }
 }

@@ -38,10 +38,11 @@ use serde::{Deserialize, Serialize};
 use crate::advection::{interpolate_scalar, Backtrace, Departures};
 use crate::density::{total_bytes, Buffer, GridlessField, GridlessMap, Selma, SelmaMap, StepInput};
 use crate::domain::Domain;
-use crate::error::InputError;
+use crate::error::{check_non_negative, check_positive, InputError};
 use crate::field::{memo, ops, Scalar, ScalarField};
 use crate::grid::{ScalarGrid, VectorGrid};
 use crate::scenario::hot_cold::HotColdConfig;
+use crate::scenario::{Scenario, SolverConfig};
 
 /// Parameters of the sphere wall and of the flow that moves it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -95,25 +96,15 @@ impl SphereWallConfig {
     /// Check every parameter; the message names the bad value.
     pub fn validate(&self) -> Result<(), InputError> {
         let positive = |name: &str, v: f32| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(InputError::new(format!(
-                    "sphere wall: {name} is {v}; it must be a positive finite number"
-                )))
-            }
+            check_positive(name, v).map_err(|e| InputError::new(format!("sphere wall: {e}")))
         };
         positive("size", self.size)?;
         positive("duration", self.duration)?;
         positive("radius", self.radius)?;
         positive("edge", self.edge)?;
         positive("spacing", self.spacing)?;
-        if !(self.warmup.is_finite() && self.warmup >= 0.0) {
-            return Err(InputError::new(format!(
-                "sphere wall: warmup is {}; it must be a finite time ≥ 0",
-                self.warmup
-            )));
-        }
+        check_non_negative("warmup", self.warmup)
+            .map_err(|e| InputError::new(format!("sphere wall: {e}")))?;
         if self.frames == 0 || self.rows == 0 || self.cols == 0 {
             return Err(InputError::new(format!(
                 "sphere wall: frames {}, rows {}, cols {}: each must be at least 1",
@@ -142,11 +133,14 @@ impl SphereWallConfig {
     /// resolution, warmup plus the wall's frames.
     pub fn flow_config(&self) -> HotColdConfig {
         HotColdConfig {
-            res: self.res,
-            size: self.size,
-            dt: self.dt(),
-            frames: self.warmup_steps() + self.frames,
-            save_every: 0,
+            solver: SolverConfig {
+                res: self.res,
+                size: self.size,
+                dt: self.dt(),
+                frames: self.warmup_steps() + self.frames,
+                save_every: 0,
+                ..SolverConfig::default()
+            },
             ..HotColdConfig::default()
         }
     }
@@ -184,8 +178,8 @@ impl FlowHistory {
         }
         Ok(Self {
             domain: *sim.domain(),
-            dt: flow.dt,
-            backtrace: flow.backtrace,
+            dt: flow.solver.dt,
+            backtrace: flow.solver.backtrace,
             velocities,
         })
     }

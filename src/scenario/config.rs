@@ -1,0 +1,282 @@
+//! One solver configuration for every scenario, and how a scenario's
+//! configuration is resolved from its defaults, a TOML file and overrides.
+//!
+//! [`SolverConfig`] holds what every scenario shares — resolution, box, time
+//! step, viscosity, gravity, advection, density mode, output cadence, seed,
+//! threads. A scenario's configuration flattens it (`#[serde(flatten)]`), so
+//! its TOML keys and its command-line flags are the same flat names in every
+//! scenario. [`resolve`] layers defaults ← file ← overrides key by key and
+//! refuses any key the scenario does not have, naming the scenario that has it.
+
+use std::path::Path;
+
+use glam::Vec3;
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use toml::Table;
+
+use crate::advection::{AdvectionOptions, Backtrace, Limiter, QuickOptions, Scheme};
+use crate::density::{DensityMode, DensityOptions, DEFAULT_SELMA_REMAP};
+use crate::domain::{Domain, MIN_CELLS};
+use crate::error::{check_non_negative, check_positive, InputError};
+use crate::simulation::{Simulation, StepParams};
+
+/// Parameters of the solver, shared by every scenario (flattened into each
+/// scenario's configuration: the TOML keys are these field names).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SolverConfig {
+    /// Cells per axis of the cubic box (the notes use 50).
+    pub res: usize,
+    /// Edge length L of the cubic box, world units.
+    pub size: f32,
+    /// Number of time steps (one step per frame).
+    pub frames: usize,
+    /// Time step Δt.
+    pub dt: f32,
+    /// Kinematic viscosity ν (0: inviscid, as the notes' eq 6.2).
+    pub nu: f32,
+    /// Magnitude of gravity; g⃗ = (0, −g, 0).
+    pub gravity: f32,
+    /// Semi-Lagrangian backtrace: `euler`, `rk2` or `rk3`.
+    pub backtrace: Backtrace,
+    /// Advection scheme for velocity and gridded densities: `sl` or `quick`.
+    pub advection: Scheme,
+    /// QUICK: split steps beyond the CFL bound into sub-steps (false: refuse them).
+    pub substeps: bool,
+    /// QUICK: limiter for the densities, `ultimate` or `none`.
+    pub limiter: Limiter,
+    /// How the densities are held: `gridded` (eq 6.4), `gridless` (eq 7.4) or
+    /// `selma` (eq 8.8).
+    pub density: DensityMode,
+    /// SELMA map grid cells along the longest axis (default: `res`).
+    pub map_res: Option<usize>,
+    /// SELMA: re-anchor the map when its tracked lattice has deformed by more
+    /// than this many map cells (0: never).
+    pub selma_remap: f32,
+    /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
+    pub sample_res: Option<usize>,
+    /// Write volumes and a preview every this many frames (0: metrics only).
+    pub save_every: usize,
+    /// Compute the fine-sampled density metrics every this many steps (≥ 1).
+    pub metrics_every: usize,
+    /// Run even if the memory estimate exceeds the available memory.
+    pub force: bool,
+    /// Random seed (recorded; the scenarios themselves are deterministic).
+    pub seed: u64,
+    /// Worker threads (default: all cores).
+    pub threads: Option<usize>,
+}
+
+impl Default for SolverConfig {
+    /// The hot/cold defaults of §6.1.1: 50³ in a cube of edge 10, Δt 0.05,
+    /// 150 frames, inviscid, g = 1, RK2 semi-Lagrangian, gridded densities.
+    fn default() -> Self {
+        Self {
+            res: 50,
+            size: 10.0,
+            frames: 150,
+            dt: 0.05,
+            nu: 0.0,
+            gravity: 1.0,
+            backtrace: Backtrace::Rk2,
+            advection: Scheme::Sl,
+            substeps: true,
+            limiter: Limiter::Ultimate,
+            density: DensityMode::Gridded,
+            map_res: None,
+            selma_remap: DEFAULT_SELMA_REMAP,
+            sample_res: None,
+            save_every: 10,
+            metrics_every: 1,
+            force: false,
+            seed: 0,
+            threads: None,
+        }
+    }
+}
+
+impl SolverConfig {
+    /// The cubic domain `[0, size]³` with `res` cells per axis.
+    pub fn domain(&self) -> Result<Domain, InputError> {
+        Domain::cube(self.res, self.size)
+    }
+
+    /// The density options of the run.
+    pub fn density_options(&self) -> DensityOptions {
+        DensityOptions {
+            mode: self.density,
+            map_res: self.map_res,
+            selma_remap: self.selma_remap,
+        }
+    }
+
+    /// The advection options these parameters select.
+    pub fn advection_options(&self) -> AdvectionOptions {
+        AdvectionOptions {
+            scheme: self.advection,
+            quick: QuickOptions {
+                substeps: self.substeps,
+                ..Default::default()
+            },
+            density_limiter: self.limiter,
+        }
+    }
+
+    /// Δt, ν, g⃗ = (0, −g, 0) and the backtrace.
+    pub fn step_params(&self) -> StepParams {
+        StepParams {
+            dt: self.dt,
+            viscosity: self.nu,
+            gravity: Vec3::new(0.0, -self.gravity, 0.0),
+            backtrace: self.backtrace,
+        }
+    }
+
+    /// Check every parameter; the message names the bad value and what is valid.
+    pub fn validate(&self) -> Result<(), InputError> {
+        if self.res < MIN_CELLS {
+            return Err(InputError::new(format!(
+                "resolution {} is too small; it must be at least {MIN_CELLS}",
+                self.res
+            )));
+        }
+        check_positive("dt", self.dt)?;
+        check_positive("size", self.size)?;
+        check_non_negative("nu", self.nu)?;
+        if !self.gravity.is_finite() {
+            return Err(InputError::new(format!(
+                "gravity is {}; it must be finite",
+                self.gravity
+            )));
+        }
+        if self.metrics_every == 0 {
+            return Err(InputError::new(
+                "metrics_every is 0; it must be at least 1 (fine metrics every K steps)",
+            ));
+        }
+        if let Some(r) = self.sample_res {
+            if r < MIN_CELLS {
+                return Err(InputError::new(format!(
+                    "sample_res {r} is too small; it must be at least {MIN_CELLS}"
+                )));
+            }
+        }
+        if let Some(r) = self.map_res {
+            if self.density != DensityMode::Selma {
+                return Err(InputError::new(format!(
+                    "map_res {r} is only used by --density selma (density is {})",
+                    self.density
+                )));
+            }
+        }
+        if self.threads == Some(0) {
+            return Err(InputError::new("threads is 0; it must be at least 1"));
+        }
+        self.density_options().validate(&self.domain()?)
+    }
+}
+
+/// A scenario: initial state, sources, obstacles and forces, with defaults.
+/// Its configuration flattens a [`SolverConfig`]; adding a scenario is one
+/// file implementing this trait and one line in the application's registry.
+pub trait Scenario: Clone + Default + Serialize + DeserializeOwned {
+    /// The name on the command line and in messages, e.g. `hot-cold`.
+    const NAME: &'static str;
+
+    /// The solver parameters.
+    fn solver(&self) -> &SolverConfig;
+
+    /// Check every parameter (the solver's too); the message names the bad
+    /// value and what is valid.
+    fn validate(&self) -> Result<(), InputError>;
+
+    /// The simulation at rest with sources and obstacles in place.
+    fn build(&self) -> Result<Simulation, InputError>;
+}
+
+/// Every key a scenario's configuration has (the solver's included).
+pub fn keys<C: Scenario>() -> Vec<String> {
+    // JSON keeps `None` fields as `null`, so optional keys are listed too.
+    match serde_json::to_value(C::default()) {
+        Ok(serde_json::Value::Object(map)) => map.keys().cloned().collect(),
+        _ => unreachable!("a scenario configuration serializes to a map"),
+    }
+}
+
+/// Read a TOML configuration file as a table of keys.
+pub fn read_toml(path: &Path) -> Result<Table, InputError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| InputError::new(format!("cannot read config {}: {e}", path.display())))?;
+    toml::from_str(&text).map_err(|e| {
+        InputError::new(format!(
+            "config {} is not valid TOML: {}",
+            path.display(),
+            e.message()
+        ))
+    })
+}
+
+/// The configuration of scenario `C`: its defaults, then each key of
+/// `layers` in turn (each a source, e.g. `config run.toml` or `flags`, and
+/// its keys), checked.
+///
+/// A key `C` does not have is an error naming it, and the scenarios in
+/// `others` (each a name and its keys) that do have it; a value of the wrong
+/// type is an error naming its key and source.
+pub fn resolve<C: Scenario>(
+    layers: &[(String, Table)],
+    others: &[(&str, Vec<String>)],
+) -> Result<C, InputError> {
+    let own = keys::<C>();
+    let defaults = Table::try_from(C::default()).expect("a scenario configuration is a table");
+    let mut merged = defaults.clone();
+    let mut origin = Vec::new();
+    for (source, layer) in layers {
+        for (key, value) in layer {
+            if !own.contains(key) {
+                let owners: Vec<&str> = others
+                    .iter()
+                    .filter(|(_, k)| k.contains(key))
+                    .map(|(name, _)| *name)
+                    .collect();
+                return Err(InputError::new(if owners.is_empty() {
+                    format!(
+                        "unknown key '{key}' in {source}; {} has the keys {}",
+                        C::NAME,
+                        own.join(", ")
+                    )
+                } else {
+                    format!(
+                        "'{key}' ({source}) applies to {} only; {} has no such parameter",
+                        owners.join(", "),
+                        C::NAME
+                    )
+                }));
+            }
+            merged.insert(key.clone(), value.clone());
+            origin.push((key, value, source));
+        }
+    }
+    let config: C = parse(merged).map_err(|e| {
+        // Name the first key whose value alone does not fit.
+        let culprit = origin.iter().find(|(key, value, _)| {
+            let mut one = defaults.clone();
+            one.insert((*key).clone(), (*value).clone());
+            parse::<C>(one).is_err()
+        });
+        InputError::new(match culprit {
+            Some((key, value, source)) => format!(
+                "{key} = {value} ({source}) is not a valid {} value: {}",
+                C::NAME,
+                e.message()
+            ),
+            None => format!("not a valid {} configuration: {}", C::NAME, e.message()),
+        })
+    })?;
+    config.validate()?;
+    Ok(config)
+}
+
+fn parse<C: Scenario>(table: Table) -> Result<C, toml::de::Error> {
+    toml::Value::Table(table).try_into()
+}
