@@ -40,7 +40,7 @@ use smokelab::noise::{lic, NoiseKind, NoiseSpec};
 pub const EXPERIMENT: Experiment = Experiment {
     id: "N-3",
     folder: "N-3",
-    reproduces: "000 fig 3",
+    reproduces: "Patel & Taylor fig 3",
     title: "2D fractal value / fast / smooth simulation noise, LIC by speed",
     cost: "~5 s",
     run,

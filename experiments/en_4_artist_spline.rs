@@ -32,7 +32,7 @@ use smokelab::noise::lic;
 pub const EXPERIMENT: Experiment = Experiment {
     id: "N-4",
     folder: "N-4",
-    reproduces: "000 fig 4",
+    reproduces: "Patel & Taylor fig 4",
     title: "flow along a spline by constrained simulation-noise edges",
     cost: "~3 s",
     run,
