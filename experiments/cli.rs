@@ -216,7 +216,10 @@ impl RunArgs {
     fn layers(&self) -> Result<Vec<(String, toml::Table)>, InputError> {
         let mut layers = Vec::new();
         if let Some(path) = &self.config {
-            layers.push((format!("config {}", path.display()), config::read_toml(path)?));
+            layers.push((
+                format!("config {}", path.display()),
+                config::read_toml(path)?,
+            ));
         }
         let mut flags = toml::Table::try_from(&self.solver).expect("flags serialize to a table");
         flags.extend(toml::Table::try_from(&self.scene).expect("flags serialize to a table"));
@@ -284,9 +287,7 @@ pub struct ExperimentArgs {
 /// Set the number of rayon worker threads (once per process).
 fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
     if let Some(n) = threads {
-        if n == 0 {
-            return Err(InputError::new("--threads is 0; it must be at least 1"));
-        }
+        smokelab::timing::check_threads(n)?;
         // A second call (e.g. in tests) keeps the first pool; that is fine.
         let _ = rayon::ThreadPoolBuilder::new()
             .num_threads(n)

@@ -248,12 +248,7 @@ fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
 
 /// Read an f32 `(nz, ny, nx)` volume with finite values.
 fn read_volume(path: &Path) -> Result<Array3<f32>, InputError> {
-    let a: Array3<f32> = ndarray_npy::read_npy(path).map_err(|e| {
-        InputError::new(format!(
-            "cannot read volume {}: {e}; it must be an f32 .npy array of shape (nz, ny, nx)",
-            path.display()
-        ))
-    })?;
+    let a = io::input::read_npy3(path)?;
     if let Some(bad) = a.iter().find(|v| !v.is_finite()) {
         return Err(InputError::new(format!(
             "volume {} contains the non-finite value {bad}; densities must be finite",

@@ -15,6 +15,10 @@ use crate::error::InputError;
 /// projection's Nyquist handling need at least four cells.
 pub const MIN_CELLS: usize = 4;
 
+/// Most cells a box may have (2^40, about 13 TB for one vector grid of f32):
+/// bigger boxes are refused before any size arithmetic could overflow.
+pub const MAX_CELLS: u64 = 1 << 40;
+
 /// A box of `nx × ny × nz` cubic cells of edge `cell`, lower corner `origin`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Domain {
@@ -38,6 +42,13 @@ impl Domain {
                     "cell count along {axis} is {n}; it must be at least {MIN_CELLS}"
                 )));
             }
+        }
+        let cells = dims.iter().try_fold(1u64, |a, &n| a.checked_mul(n as u64));
+        if !cells.is_some_and(|c| c <= MAX_CELLS) {
+            return Err(InputError::new(format!(
+                "{} × {} × {} cells is more than the {MAX_CELLS} cells a grid may hold; use a smaller resolution",
+                dims[0], dims[1], dims[2]
+            )));
         }
         if !(cell.is_finite() && cell > 0.0) {
             return Err(InputError::new(format!(
@@ -168,5 +179,16 @@ mod tests {
         assert!(Domain::new(Vec3::ZERO, 1.0, [3, 8, 8]).is_err());
         assert!(Domain::new(Vec3::ZERO, 0.0, [8, 8, 8]).is_err());
         assert!(Domain::new(Vec3::ZERO, f32::NAN, [8, 8, 8]).is_err());
+    }
+
+    /// `--res 2097152` used to overflow `nx·ny·nz` to 0 and panic later.
+    #[test]
+    fn rejects_cell_counts_whose_product_overflows() {
+        let e = Domain::cube(2_097_152, 10.0).unwrap_err().to_string();
+        assert!(e.contains("2097152 × 2097152 × 2097152 cells"), "{e}");
+        assert!(Domain::new(Vec3::ZERO, 1.0, [usize::MAX, 8, 8]).is_err());
+        let at_limit = (MAX_CELLS as f64).cbrt() as usize;
+        assert!(Domain::cube(at_limit, 1.0).is_ok());
+        assert!(Domain::cube(at_limit + 1, 1.0).is_err());
     }
 }

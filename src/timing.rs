@@ -57,3 +57,22 @@ fn proc_status_kib(key: &str) -> Option<u64> {
     let line = s.lines().find(|l| l.starts_with(key))?;
     line.split_whitespace().nth(1)?.parse().ok()
 }
+
+/// Most worker threads a run may ask for per logical core: beyond a few per
+/// core, more threads only cost memory and start-up time.
+pub const MAX_THREADS_PER_CORE: usize = 4;
+
+/// Check a requested worker-thread count against this machine: at least 1
+/// and at most [`MAX_THREADS_PER_CORE`] per logical core (a count of 100000
+/// used to hang spawning threads).
+pub fn check_threads(threads: usize) -> Result<(), crate::error::InputError> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let max = MAX_THREADS_PER_CORE * cores;
+    if (1..=max).contains(&threads) {
+        Ok(())
+    } else {
+        Err(crate::error::InputError::new(format!(
+            "threads is {threads}; it must be between 1 and {max} ({MAX_THREADS_PER_CORE} per logical core, {cores} here)"
+        )))
+    }
+}

@@ -535,5 +535,8 @@ fn advection_and_boundary_are_config_keys() {
         (Scheme::Sl, BoundaryRule::Sticky, 0.25, 2)
     );
     let bad = resolve::<SlabBoxConfig>(&layer("boundary = \"bouncy\"\n"), &[]).unwrap_err();
-    assert!(bad.to_string().contains("boundary = \"bouncy\" (test)"), "{bad}");
+    assert!(
+        bad.to_string().contains("boundary = \"bouncy\" (test)"),
+        "{bad}"
+    );
 }

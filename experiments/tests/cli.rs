@@ -39,7 +39,7 @@ fn assert_rejected(args: &[&str], needle: &str) {
 #[test]
 fn bad_inputs_exit_2_and_write_nothing() {
     assert_rejected(&["run", "hot-cold", "--res", "3"], "resolution 3");
-    assert_rejected(&["run", "hot-cold", "--res", "100000"], "GiB");
+    assert_rejected(&["run", "hot-cold", "--res", "5000"], "GiB");
     assert_rejected(&["run", "hot-cold", "--dt", "0"], "dt is 0");
     assert_rejected(&["run", "hot-cold", "--dt", "-0.1"], "dt is -0.1");
     assert_rejected(&["run", "hot-cold", "--dt", "nan"], "dt is NaN");
@@ -56,6 +56,83 @@ fn bad_inputs_exit_2_and_write_nothing() {
         "resolution",
     );
     assert_rejected(&["experiment", "99-9"], "99-9");
+    // Found by trying bad input on every subcommand (each used to hang,
+    // panic, exit 1 or run silently):
+    assert_rejected(
+        &["run", "hot-cold", "--threads", "100000"],
+        "threads is 100000",
+    );
+    assert_rejected(
+        &["run", "slab-box", "--res", "2097152"],
+        "2097152 × 2097152",
+    );
+    assert_rejected(
+        &["run", "hot-cold", "--res", "8", "--radius", "0.01"],
+        "covers no cell",
+    );
+    assert_rejected(&["run", "hot-cold", "--config", "."], "not a regular file");
+    assert_rejected(
+        &["run", "hot-cold", "--set", "wall=1"],
+        "'wall' (--set) applies to slab-box only",
+    );
+    assert_rejected(&["run", "hot-cold", "--set", "res"], "KEY=VALUE");
+    assert_rejected(
+        &["noise", "value", "--octaves", "16", "--lacunarity", "1000"],
+        "frequency",
+    );
+}
+
+/// An output path that is a file, or inside one, is refused with exit 2
+/// (it used to fail with exit 1 after the run had started).
+#[test]
+fn output_paths_inside_files_are_refused() {
+    for out in ["/dev/null", "/dev/null/run"] {
+        let dir = tempfile::tempdir().unwrap();
+        let o = smokelab(&["run", "hot-cold", "--res", "8", "--out", out], dir.path());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{out}: {err}");
+        assert!(err.contains("give a folder"), "{out}: {err}");
+    }
+}
+
+/// `smokelab run <scenario> --print-config` prints a TOML file that, given
+/// back as `--config`, resolves to the same configuration.
+#[test]
+fn print_config_round_trips() {
+    let dir = tempfile::tempdir().unwrap();
+    for scenario in ["hot-cold", "slab-box"] {
+        let args = [
+            "run",
+            scenario,
+            "--res",
+            "24",
+            "--set",
+            "wall=0.9",
+            "--print-config",
+        ];
+        let args: Vec<&str> = if scenario == "hot-cold" {
+            args.iter()
+                .copied()
+                .filter(|a| *a != "--set" && *a != "wall=0.9")
+                .collect()
+        } else {
+            args.to_vec()
+        };
+        let o = smokelab(&args, dir.path());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let printed = String::from_utf8(o.stdout).unwrap();
+        assert!(printed.contains("res = 24"), "{printed}");
+        std::fs::write(dir.path().join("c.toml"), &printed).unwrap();
+        let again = smokelab(
+            &["run", scenario, "--config", "c.toml", "--print-config"],
+            dir.path(),
+        );
+        assert_eq!(
+            String::from_utf8(again.stdout).unwrap(),
+            printed,
+            "{scenario}"
+        );
+    }
 }
 
 #[test]

@@ -111,8 +111,10 @@ fn run_with_render_writes_render_frames_and_rejects_bad_render_flags() {
         &[
             "run",
             "hot-cold",
+            // 10³: the default sources cover cell centres (at 8³ they cover
+            // none, and the run is refused).
             "--res",
-            "8",
+            "10",
             "--frames",
             "4",
             "--save-every",
@@ -146,7 +148,7 @@ fn run_with_render_writes_render_frames_and_rejects_bad_render_flags() {
         vec!["--render", "--march-step", "-1"],
         vec!["--render", "--save-every", "0"],
     ] {
-        let mut full = vec!["run", "hot-cold", "--res", "8", "--frames", "2", "--quiet"];
+        let mut full = vec!["run", "hot-cold", "--res", "10", "--frames", "2", "--quiet"];
         full.extend(args.iter().copied());
         full.extend(["--out", bad.to_str().unwrap()]);
         let o = smokelab(&full, Path::new("."));

@@ -4,6 +4,7 @@
 //! into place, so a killed run leaves finished files intact and never a
 //! half-written one.
 
+pub mod input;
 pub mod manifest;
 pub mod preview;
 
@@ -91,18 +92,46 @@ impl CsvLog {
     }
 }
 
-/// Check that `dir` can be used as an output folder (it must not be a file).
+/// Check that `dir` can be used as an output folder: it is a folder or does
+/// not exist yet, and its nearest existing ancestor is a writable folder
+/// (not a file such as `/dev/null`).
 ///
 /// The folder itself is created by [`create_output_dir`] only once all input
 /// has been validated, so bad input leaves nothing behind.
 pub fn check_output_dir(dir: &Path) -> Result<(), crate::error::InputError> {
-    if dir.is_file() {
-        return Err(crate::error::InputError::new(format!(
-            "output path {} is a file; give a folder",
+    let bad = |why: &str| {
+        Err(crate::error::InputError::new(format!(
+            "output path {} {why}; give a folder",
             dir.display()
-        )));
+        )))
+    };
+    let mut existing = dir;
+    while !existing.as_os_str().is_empty() && std::fs::symlink_metadata(existing).is_err() {
+        match existing.parent() {
+            Some(p) => existing = p,
+            None => break,
+        }
     }
-    Ok(())
+    if existing.as_os_str().is_empty() {
+        existing = Path::new(".");
+    }
+    match std::fs::metadata(existing) {
+        Ok(m) if m.is_dir() => {
+            if m.permissions().readonly() {
+                return bad(&format!(
+                    "is inside {}, which is read-only",
+                    existing.display()
+                ));
+            }
+            Ok(())
+        }
+        Ok(_) if existing == dir => bad("is a file"),
+        Ok(_) => bad(&format!(
+            "is inside {}, which is not a folder",
+            existing.display()
+        )),
+        Err(e) => bad(&format!("cannot be checked: {e}")),
+    }
 }
 
 /// Create the output folder (and parents).

@@ -62,6 +62,9 @@ impl Fractal {
         }
     }
 
+    /// Largest ratio between the last and the first octave's frequency.
+    pub const MAX_FREQUENCY_RATIO: f64 = 1e5;
+
     /// Check the parameters, naming the bad value.
     pub fn validate(&self) -> Result<(), InputError> {
         if !(1..=Self::MAX_OCTAVES).contains(&self.octaves) {
@@ -81,6 +84,24 @@ impl Fractal {
             return Err(InputError::new(format!(
                 "gain is {}; it must be a positive finite number",
                 self.gain
+            )));
+        }
+        // The last octave's frequency and amplitude must stay well inside f32:
+        // lattice coordinates lose their fraction past 2^23.
+        let last = (self.octaves - 1) as f64;
+        let frequency = (self.lacunarity as f64).powf(last);
+        let amplitude = (self.gain as f64).powf(last);
+        if !(frequency <= Self::MAX_FREQUENCY_RATIO
+            && amplitude.is_finite()
+            && amplitude as f32 > 0.0
+            && amplitude <= f32::MAX as f64)
+        {
+            return Err(InputError::new(format!(
+                "octaves {}, lacunarity {} and gain {} give a last octave of frequency ×{frequency:.3e} and amplitude ×{amplitude:.3e}; the frequency ratio must be at most {:.0e} and the amplitude a finite, non-zero f32: use fewer octaves or a smaller lacunarity",
+                self.octaves,
+                self.lacunarity,
+                self.gain,
+                Self::MAX_FREQUENCY_RATIO
             )));
         }
         Ok(())
@@ -164,6 +185,29 @@ mod tests {
         Ok(Arc::new(ValueNoise::new(StaticCorners::new(
             keys::<1>(seed)[0],
         ))))
+    }
+
+    /// Octaves, lacunarity or gain whose last octave overflows f32 used to
+    /// write all-NaN volumes and exit 0.
+    #[test]
+    fn octaves_that_overflow_are_refused() {
+        let bad = |octaves, lacunarity, gain| {
+            let f = Fractal {
+                octaves,
+                lacunarity,
+                gain,
+            };
+            f.validate().unwrap_err().to_string()
+        };
+        assert!(bad(Fractal::MAX_OCTAVES, 1e4, 0.5).contains("frequency"));
+        assert!(bad(Fractal::MAX_OCTAVES, 2.0, 1e-30).contains("amplitude"));
+        assert!(bad(Fractal::MAX_OCTAVES, 2.0, 1e30).contains("amplitude"));
+        let fine = Fractal {
+            octaves: 8,
+            lacunarity: 2.0,
+            gain: 0.5,
+        };
+        assert!(fine.validate().is_ok());
     }
 
     #[test]

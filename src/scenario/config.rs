@@ -19,7 +19,7 @@ use crate::advection::{AdvectionOptions, Backtrace, Limiter, QuickOptions, Schem
 use crate::density::{DensityMode, DensityOptions, DEFAULT_SELMA_REMAP};
 use crate::domain::{Domain, MIN_CELLS};
 use crate::error::{check_non_negative, check_positive, InputError};
-use crate::simulation::{Simulation, StepParams};
+use crate::simulation::{Gas, Simulation, StepParams};
 
 /// Parameters of the solver, shared by every scenario (flattened into each
 /// scenario's configuration: the TOML keys are these field names).
@@ -169,11 +169,27 @@ impl SolverConfig {
                 )));
             }
         }
-        if self.threads == Some(0) {
-            return Err(InputError::new("threads is 0; it must be at least 1"));
+        if let Some(n) = self.threads {
+            crate::timing::check_threads(n)?;
         }
         self.density_options().validate(&self.domain()?)
     }
+}
+
+/// Refuse gases whose source covers no cell centre: such a run would
+/// inject nothing and move nothing (a radius below half a cell, say).
+pub fn check_sources(gases: &[Gas], solver: &SolverConfig) -> Result<(), InputError> {
+    for gas in gases {
+        if gas.source.total() <= 0.0 {
+            return Err(InputError::new(format!(
+                "the {} source covers no cell centre at res {} (cell {:.4}); use a larger radius or a finer res",
+                gas.name,
+                solver.res,
+                solver.size / solver.res as f32
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// A scenario: initial state, sources, obstacles and forces, with defaults.
@@ -205,8 +221,7 @@ pub fn keys<C: Scenario>() -> Vec<String> {
 
 /// Read a TOML configuration file as a table of keys.
 pub fn read_toml(path: &Path) -> Result<Table, InputError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| InputError::new(format!("cannot read config {}: {e}", path.display())))?;
+    let text = crate::io::input::read_text(path, "config")?;
     toml::from_str(&text).map_err(|e| {
         InputError::new(format!(
             "config {} is not valid TOML: {}",

@@ -11,6 +11,7 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::config::check_sources;
 use super::{Scenario, SolverConfig};
 use crate::density::DensityMode;
 use crate::error::{check_non_negative, check_positive, InputError};
@@ -153,6 +154,7 @@ impl Scenario for HotColdConfig {
             Gas::with_density("hot", domain, &source(self.hot_center()), 1.0, &density),
             Gas::with_density("cold", domain, &source(self.cold_center()), -1.0, &density),
         ];
+        check_sources(&gases, s)?;
         Ok(Simulation::new(domain, s.step_params(), gases).with_advection(&s.advection_options()))
     }
 }

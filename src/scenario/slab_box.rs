@@ -20,6 +20,7 @@ use std::sync::Arc;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+use super::config::check_sources;
 use super::{Scenario, SolverConfig};
 use crate::advection::Scheme;
 use crate::boundary::{
@@ -203,6 +204,7 @@ impl Scenario for SlabBoxConfig {
         let domain = s.domain()?;
         let source = ops::mask(ops::sphere(Vec3::from(self.source_center), self.radius));
         let gases = vec![Gas::new("density", domain, &source, 1.0)];
+        check_sources(&gases, s)?;
         let boundary = Boundary::new(domain, &self.obstacle(), self.boundary_options())?;
         Ok(Simulation::new(domain, s.step_params(), gases)
             .with_advection(&s.advection_options())
