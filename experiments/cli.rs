@@ -4,7 +4,7 @@
 //! under `runs/`. Bad input is reported as one line naming the value and what
 //! is valid, with exit code 2, before anything is written.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
@@ -307,7 +307,7 @@ pub fn execute(cli: Cli) -> Result<()> {
             crate::render_command::run(&args)
         }
         Some(Command::Noise(args)) => crate::noise_command::run(&args),
-        Some(Command::Paper) => crate::paper::build(Path::new(".")),
+        Some(Command::Paper) => crate::paper::build(&crate::paper::repository_root()?),
     }
 }
 

@@ -8,11 +8,12 @@
 //! If `pandoc` is on the PATH the paper is also written to
 //! `paper/paper.html`; without it the command says so and succeeds.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{bail, Context, Result};
 
+use smokelab::error::InputError;
 use smokelab::io;
 
 /// Replace the text between `<!-- {name}:begin -->` and `<!-- {name}:end -->`
@@ -38,6 +39,25 @@ pub fn replace_block(doc: &str, name: &str, content: &str) -> Result<String> {
         content.trim_end(),
         &doc[e..]
     ))
+}
+
+/// The repository whose paper to build: the nearest folder at or above the
+/// working directory that holds `paper/paper.md`, else the checkout this
+/// binary was built from.
+pub fn repository_root() -> Result<PathBuf> {
+    let cwd = std::env::current_dir().context("cannot read the working directory")?;
+    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    cwd.ancestors()
+        .map(Path::to_path_buf)
+        .chain(std::iter::once(built))
+        .find(|d| d.join("paper/paper.md").is_file())
+        .map(|d| d.canonicalize().unwrap_or(d))
+        .ok_or_else(|| {
+            anyhow::Error::new(InputError::new(format!(
+                "no paper/paper.md in {} or above it, nor in the checkout smokelab was built from",
+                cwd.display()
+            )))
+        })
 }
 
 /// Refresh the generated blocks of `root/paper/paper.md` and, if pandoc is
@@ -69,7 +89,7 @@ pub fn build(root: &Path) -> Result<()> {
         .arg("title=smokelab: resolution-independent smoke, reproduced")
         .arg("-o")
         .arg(&html)
-        .current_dir(root.join("paper"))
+        .current_dir(md.parent().unwrap_or(root))
         .status()
     {
         Ok(s) if s.success() => println!("wrote {}", html.display()),

@@ -56,3 +56,28 @@ fn figures_table_names_every_experiment() {
         );
     }
 }
+
+/// `smokelab paper` finds the repository from any folder inside it (it used
+/// to work only from the repository root, and to fail whenever pandoc was
+/// installed because pandoc was given a path relative to the wrong folder).
+#[test]
+fn paper_builds_from_a_subfolder() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = dir.path();
+    std::fs::create_dir_all(root.join("paper/sub")).unwrap();
+    std::fs::create_dir_all(root.join("results/convergence")).unwrap();
+    std::fs::write(
+        root.join("paper/paper.md"),
+        "# t\n<!-- orders:begin -->\nold\n<!-- orders:end -->\n",
+    )
+    .unwrap();
+    std::fs::write(root.join("results/convergence/orders.md"), "| new |\n").unwrap();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_smokelab"))
+        .arg("paper")
+        .current_dir(root.join("paper/sub"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(root.join("paper/paper.md")).unwrap();
+    assert!(md.contains("| new |") && !md.contains("old"), "{md}");
+}
