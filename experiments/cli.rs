@@ -282,6 +282,25 @@ pub struct ExperimentArgs {
     /// Hide progress bars.
     #[arg(long)]
     pub quiet: bool,
+    /// Write into `results/` even from a build of a dirty tree (committed
+    /// results must come from a clean commit, recorded in their manifests).
+    #[arg(long)]
+    pub allow_dirty: bool,
+}
+
+/// Refuse to write the committed `results/` folder from a build of
+/// uncommitted code, unless `allow_dirty`: a manifest must name the code
+/// that made its result.
+fn check_clean_build(out: &std::path::Path, allow_dirty: bool) -> Result<(), InputError> {
+    let into_results =
+        out.components().next() == Some(std::path::Component::Normal("results".as_ref()));
+    if into_results && !allow_dirty && io::manifest::BUILD_COMMIT.ends_with("-dirty") {
+        return Err(InputError::new(format!(
+            "this smokelab was built from a dirty tree ({}); commit first, write elsewhere with --out, or pass --allow-dirty",
+            io::manifest::BUILD_COMMIT
+        )));
+    }
+    Ok(())
 }
 
 /// Set the number of rayon worker threads (once per process).
@@ -387,6 +406,7 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     if id == "all" {
         let parent = args.out.clone().unwrap_or_else(|| PathBuf::from("results"));
         io::check_output_dir(&parent)?;
+        check_clean_build(&parent, args.allow_dirty)?;
         return run_all_experiments(&parent, size, !args.quiet);
     }
     let exp = registry::find(id)?;
@@ -395,6 +415,7 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("results").join(exp.folder));
     io::check_output_dir(&out)?;
+    check_clean_build(&out, args.allow_dirty)?;
     let ctx = registry::Context {
         out: out.clone(),
         size,
