@@ -433,6 +433,16 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     Ok(())
 }
 
+/// One row of `experiments.csv`.
+#[derive(Serialize)]
+struct ExperimentRow {
+    id: &'static str,
+    reproduces: &'static str,
+    seconds: f64,
+    output: String,
+    status: String,
+}
+
 /// `smokelab experiment all`: every experiment in the notes' order into
 /// `parent/<folder>/`, going on past failures, then a table of what ran, how
 /// long and where it wrote — printed and saved as `parent/experiments.csv`.
@@ -464,7 +474,7 @@ fn run_all_experiments(
         "{:<7} {:<22} {:>9}  {:<28} {}\n",
         "id", "reproduces", "seconds", "output", "status"
     );
-    let mut csv = String::from("id,reproduces,seconds,output,status\n");
+    let mut csv = Vec::new();
     for (exp, secs, out, status) in &rows {
         table.push_str(&format!(
             "{:<7} {:<22} {:>9.1}  {:<28} {}\n",
@@ -474,21 +484,17 @@ fn run_all_experiments(
             out.display(),
             status
         ));
-        csv.push_str(&format!(
-            "{},\"{}\",{:.1},{},\"{}\"\n",
-            exp.id,
-            exp.reproduces,
-            secs,
-            out.display(),
-            status.replace('"', "'")
-        ));
+        csv.push(ExperimentRow {
+            id: exp.id,
+            reproduces: exp.reproduces,
+            seconds: (secs * 10.0).round() / 10.0,
+            output: out.display().to_string(),
+            status: status.clone(),
+        });
     }
     print!("{table}");
     io::create_output_dir(parent)?;
-    io::write_atomic(&parent.join("experiments.csv"), |w| {
-        use std::io::Write;
-        Ok(w.write_all(csv.as_bytes())?)
-    })?;
+    crate::table::write_rows(&parent.join("experiments.csv"), &csv)?;
     let failed: Vec<_> = rows
         .iter()
         .filter(|r| r.3 != "ok")

@@ -27,6 +27,7 @@ use serde::Serialize;
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
 use crate::registry::Context;
 use crate::run::{self, RunOptions, SaveFrames};
+use crate::table::Columns;
 use smokelab::density::probe;
 use smokelab::density::{DensityMode, DensityModel};
 use smokelab::field::Scalar;
@@ -239,47 +240,6 @@ fn sheet(rows: &[Vec<RgbImage>], gap: u32, bg: [u8; 3]) -> RgbImage {
     out
 }
 
-/// A `metrics.csv`: its column names and rows.
-struct Table {
-    cols: Vec<String>,
-    rows: Vec<Vec<f64>>,
-}
-
-impl Table {
-    fn read(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let mut lines = text.lines();
-        let cols = lines
-            .next()
-            .unwrap_or_default()
-            .split(',')
-            .map(String::from)
-            .collect();
-        let rows = lines
-            .map(|l| {
-                l.split(',')
-                    .map(|v| v.parse().unwrap_or(f64::NAN))
-                    .collect()
-            })
-            .collect();
-        Ok(Self { cols, rows })
-    }
-
-    fn col(&self, name: &str) -> Result<usize> {
-        self.cols
-            .iter()
-            .position(|c| c == name)
-            .with_context(|| format!("metrics.csv has no column {name}"))
-    }
-
-    /// `(time, f(row))` for every row.
-    fn series(&self, f: impl Fn(&[f64]) -> f64) -> Result<Vec<(f64, f64)>> {
-        let t = self.col("time")?;
-        Ok(self.rows.iter().map(|r| (r[t], f(r))).collect())
-    }
-}
-
 /// The colour of a mode in every plot.
 fn color(label: &str) -> plotters::style::RGBColor {
     match label {
@@ -297,28 +257,30 @@ fn color(label: &str) -> plotters::style::RGBColor {
 /// sheet. Reads the
 /// runs' `metrics.csv`, so the plots can be redrawn without simulating.
 pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &str) -> Result<()> {
-    let tables: Vec<(String, Table)> = results
+    let tables: Vec<(String, Columns)> = results
         .iter()
-        .map(|(l, dir)| Ok((l.clone(), Table::read(&dir.join("metrics.csv"))?)))
+        .map(|(l, dir)| Ok((l.clone(), Columns::read(&dir.join("metrics.csv"))?)))
         .collect::<Result<_>>()?;
     let time_label = "simulated time";
     let mut plots: Vec<(&str, Plot)> = vec![];
-    let mut add =
-        |name: &'static str, plot: Plot, f: &dyn Fn(&Table) -> Result<Vec<Series>>| -> Result<()> {
-            let mut p = plot;
-            for (label, t) in &tables {
-                for s in f(t)? {
-                    let name = if s.name.is_empty() {
-                        label.clone()
-                    } else {
-                        format!("{label} {}", s.name)
-                    };
-                    p = p.series(Series { name, ..s }.colored(color(label)));
-                }
+    let mut add = |name: &'static str,
+                   plot: Plot,
+                   f: &dyn Fn(&Columns) -> Result<Vec<Series>>|
+     -> Result<()> {
+        let mut p = plot;
+        for (label, t) in &tables {
+            for s in f(t)? {
+                let name = if s.name.is_empty() {
+                    label.clone()
+                } else {
+                    format!("{label} {}", s.name)
+                };
+                p = p.series(Series { name, ..s }.colored(color(label)));
             }
-            plots.push((name, p));
-            Ok(())
-        };
+        }
+        plots.push((name, p));
+        Ok(())
+    };
     add(
         "mass",
         Plot::new(
@@ -328,7 +290,7 @@ pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
         )
         .legend(LegendPosition::LowerLeft),
         &|t| {
-            let (m, i) = (t.col("hot_mass")?, t.col("hot_injected")?);
+            let (m, i) = (t.index("hot_mass")?, t.index("hot_injected")?);
             Ok(vec![
                 Series::line("", t.series(|r| r[m] / r[i])?).styled(Style::LineMarkers)
             ])
@@ -343,7 +305,7 @@ pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
         )
         .legend(LegendPosition::UpperLeft),
         &|t| {
-            let m = t.col("hot_max")?;
+            let m = t.index("hot_max")?;
             Ok(vec![
                 Series::line("", t.series(|r| r[m])?).styled(Style::LineMarkers)
             ])
@@ -364,7 +326,7 @@ pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
             "solid: densities · dashed: velocity (0 is not drawn)",
         )),
         &|t| {
-            let (d, v) = (t.col("mirror_error")?, t.col("vel_mirror_error")?);
+            let (d, v) = (t.index("mirror_error")?, t.index("vel_mirror_error")?);
             Ok(vec![
                 Series::line("ρ", t.series(|r| r[d])?),
                 Series::line("u", t.series(|r| r[v])?).styled(Style::Dashed),
@@ -380,7 +342,7 @@ pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
         )
         .legend(LegendPosition::UpperLeft),
         &|t| {
-            let g = t.col("hot_grad")?;
+            let g = t.index("hot_grad")?;
             Ok(vec![
                 Series::line("", t.series(|r| r[g])?).styled(Style::LineMarkers)
             ])
@@ -396,7 +358,7 @@ pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
         .log_y()
         .legend(LegendPosition::LowerRight),
         &|t| {
-            let g = t.col("hot_subgrid")?;
+            let g = t.index("hot_subgrid")?;
             Ok(vec![
                 Series::line("", t.series(|r| r[g])?).styled(Style::LineMarkers)
             ])
@@ -414,7 +376,7 @@ pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
         &|t| {
             let c: Vec<usize> = ["t_advect", "t_density", "t_force", "t_project"]
                 .iter()
-                .map(|n| t.col(n))
+                .map(|n| t.index(n))
                 .collect::<Result<_>>()?;
             Ok(vec![Series::line(
                 "",
@@ -432,7 +394,7 @@ pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
         .log_y()
         .legend(LegendPosition::UpperLeft),
         &|t| {
-            let b = t.col("density_bytes")?;
+            let b = t.index("density_bytes")?;
             Ok(vec![Series::line("", t.series(|r| r[b] / 1048576.0)?)])
         },
     )?;
@@ -480,9 +442,9 @@ pub(crate) struct SummaryRow {
 pub(crate) fn summarise(out: &Path, results: &[ModeResult]) -> Result<Vec<SummaryRow>> {
     let mut rows = vec![];
     for r in results {
-        let t = Table::read(&r.dir.join("metrics.csv"))?;
+        let t = Columns::read(&r.dir.join("metrics.csv"))?;
         let last = t.rows.last().context("empty metrics.csv")?;
-        let c = |n: &str| t.col(n);
+        let c = |n: &str| t.index(n);
         let max = |i: usize| t.rows.iter().map(|r| r[i]).fold(0.0, f64::max);
         let step: Vec<usize> = ["t_advect", "t_density", "t_force", "t_project"]
             .iter()

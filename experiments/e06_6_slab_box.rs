@@ -41,6 +41,7 @@ use image::RgbImage;
 
 use crate::registry::{Context, Experiment, Size};
 use crate::run::{self, RunOptions, SaveFrames};
+use crate::table::Columns;
 use smokelab::advection::Scheme;
 use smokelab::boundary::{AsField, BoundaryRule, Obstacle};
 use smokelab::grid::ScalarGrid;
@@ -146,7 +147,7 @@ fn run(ctx: &Context) -> Result<()> {
             render: None,
         };
         let summary = run::run(&mut sim, &opts, config, config.solver.seed)?;
-        let m = column_stats(&out.join("metrics.csv"))?;
+        let m = Columns::read(&out.join("metrics.csv"))?;
         let gas = &sim.gases[0];
         let injected = gas.injected_per_step(config.solver.dt) * frames as f64;
         let reference = reference.get_or_insert_with(|| gas.density().clone());
@@ -221,52 +222,6 @@ fn relative_difference(a: &ScalarGrid, b: &ScalarGrid) -> f64 {
         (diff / norm).sqrt()
     } else {
         0.0
-    }
-}
-
-/// Columns of a `metrics.csv`, for summary statistics.
-struct Columns {
-    header: Vec<String>,
-    rows: Vec<Vec<f64>>,
-}
-
-fn column_stats(path: &Path) -> Result<Columns> {
-    let text = std::fs::read_to_string(path)?;
-    let mut lines = text.lines();
-    let header = lines
-        .next()
-        .context("empty metrics.csv")?
-        .split(',')
-        .map(String::from)
-        .collect();
-    let rows = lines
-        .map(|l| {
-            l.split(',')
-                .map(|v| v.parse().unwrap_or(f64::NAN))
-                .collect()
-        })
-        .collect();
-    Ok(Columns { header, rows })
-}
-
-impl Columns {
-    fn column(&self, name: &str) -> Result<Vec<f64>> {
-        let i = self
-            .header
-            .iter()
-            .position(|h| h == name)
-            .with_context(|| format!("metrics.csv has no column {name}"))?;
-        Ok(self.rows.iter().map(|r| r[i]).collect())
-    }
-    fn max(&self, name: &str) -> Result<f64> {
-        Ok(self.column(name)?.into_iter().fold(0.0, f64::max))
-    }
-    fn mean(&self, name: &str) -> Result<f64> {
-        let c = self.column(name)?;
-        Ok(c.iter().sum::<f64>() / c.len().max(1) as f64)
-    }
-    fn last(&self, name: &str) -> Result<f64> {
-        Ok(*self.column(name)?.last().unwrap_or(&f64::NAN))
     }
 }
 

@@ -27,7 +27,8 @@ use std::time::Instant;
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{plot_costs, study_size, write_costs, CostRow, Setup};
+use crate::sphere_wall_series::{plot_costs, study_size, CostRow, Setup};
+use crate::table::write_rows;
 use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::scenario::sphere_wall::{AdvectedWall, GriddedWall};
 
@@ -73,7 +74,7 @@ fn run(ctx: &Context) -> Result<()> {
         &ctx.out.join("strip.png"),
         &preview::side_by_side(&strip, 4),
     )?;
-    write_costs(&ctx.out.join("data.csv"), &rows)?;
+    write_rows(&ctx.out.join("data.csv"), &rows)?;
     let fits = plot_costs(&ctx.out, "sphere wall", "gridless frames k (of F)")?;
     let extra = serde_json::json!({
         "frames": f,

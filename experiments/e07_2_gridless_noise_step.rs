@@ -30,7 +30,6 @@
 //! renderer), `data.csv` (mass, occupied volume and interface cells before
 //! and after), `manifest.json`, and `density_after.npy` (git-ignored).
 
-use std::io::Write;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -41,6 +40,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::registry::{Context, Experiment, Size};
+use crate::table::write_rows;
 use smokelab::domain::Domain;
 use smokelab::field::{ops, Scalar, ScalarField, Vector};
 use smokelab::grid::ScalarGrid;
@@ -209,17 +209,28 @@ fn run(ctx: &Context) -> Result<()> {
         &ctx.out.join("projection.png"),
         &io::preview::side_by_side(&proj, 4),
     )?;
-    let mut csv = String::from("state,mass,occupied_fraction,interface_fraction\n");
+    /// One row of `data.csv`.
+    #[derive(Serialize)]
+    struct Row {
+        state: &'static str,
+        mass: f64,
+        occupied_fraction: f64,
+        interface_fraction: f64,
+    }
+    let mut rows = Vec::new();
     let mut masses = Vec::new();
-    for (name, g) in ["before", "after"].iter().zip(&grids) {
+    for (state, g) in ["before", "after"].into_iter().zip(&grids) {
         let mass = g.total();
-        let (full, edge) = occupancy(g);
-        csv.push_str(&format!("{name},{mass},{full},{edge}\n"));
+        let (occupied_fraction, interface_fraction) = occupancy(g);
+        rows.push(Row {
+            state,
+            mass,
+            occupied_fraction,
+            interface_fraction,
+        });
         masses.push(mass);
     }
-    io::write_atomic(&ctx.out.join("data.csv"), |wr| {
-        Ok(wr.write_all(csv.as_bytes())?)
-    })?;
+    write_rows(&ctx.out.join("data.csv"), &rows)?;
 
     let div = tile.divergence();
     let samples = tile.frame(0);

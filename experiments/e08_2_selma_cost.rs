@@ -28,7 +28,8 @@ use std::time::Instant;
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{plot_costs, study_size, write_costs, CostRow, Setup};
+use crate::sphere_wall_series::{plot_costs, study_size, CostRow, Setup};
+use crate::table::write_rows;
 use smokelab::io::{self, manifest::Manifest};
 use smokelab::scenario::sphere_wall::{AdvectedWall, SelmaWall};
 
@@ -74,7 +75,7 @@ fn run(ctx: &Context) -> Result<()> {
             measure(name, &AdvectedWall::selma(&wall, s), n)?;
         }
     }
-    write_costs(&ctx.out.join("data.csv"), &rows)?;
+    write_rows(&ctx.out.join("data.csv"), &rows)?;
     let fits = plot_costs(&ctx.out, "sphere wall", "advected frames n")?;
     let extra = serde_json::json!({
         "frames": f,

@@ -18,7 +18,8 @@ use serde::Serialize;
 
 use crate::plot::{Annotation, LegendPosition, Plot, Series};
 use crate::registry::{Context, Experiment};
-use smokelab::io::{self, manifest::Manifest, CsvLog};
+use crate::table::write_columns;
+use smokelab::io::{self, manifest::Manifest};
 use smokelab::render::phase::Phase;
 
 /// Registry entry.
@@ -57,8 +58,7 @@ fn run(ctx: &Context) -> Result<()> {
     io::create_output_dir(&ctx.out)?;
     let mut cols = vec!["theta_deg".to_string(), "cos_theta".to_string()];
     cols.extend(G.iter().map(|g| format!("hg_g{g}")));
-    let col_refs: Vec<&str> = cols.iter().map(String::as_str).collect();
-    let mut csv = CsvLog::new(ctx.out.join("data.csv"), &col_refs);
+    let mut rows = Vec::new();
     let mut series: Vec<Vec<(f64, f64)>> = vec![vec![]; G.len()];
     for i in 0..SAMPLES {
         let deg = 180.0 * i as f64 / (SAMPLES - 1) as f64;
@@ -69,9 +69,9 @@ fn run(ctx: &Context) -> Result<()> {
             row.push(v);
             s.push((deg, v));
         }
-        csv.push(&row);
+        rows.push(row);
     }
-    csv.flush()?;
+    write_columns(&ctx.out.join("data.csv"), &cols, &rows)?;
     let mut plot = Plot::new(
         "Henyey–Greenstein phase function (eq A.8)",
         "scattering angle θ between view ray and light direction [degrees]",

@@ -25,7 +25,8 @@ use serde::Serialize;
 
 use crate::plot::{Annotation, LegendPosition, Plot, Series};
 use crate::registry::{Context, Experiment};
-use smokelab::io::{self, manifest::Manifest, CsvLog};
+use crate::table::write_columns;
+use smokelab::io::{self, manifest::Manifest};
 use smokelab::render::phase::{self, Phase};
 
 /// Registry entry.
@@ -80,8 +81,7 @@ fn run(ctx: &Context) -> Result<()> {
     io::create_output_dir(&ctx.out)?;
     let mut cols = vec!["theta_deg".to_string()];
     cols.extend(MU.iter().map(|mu| format!("ff_mu{mu}")));
-    let col_refs: Vec<&str> = cols.iter().map(String::as_str).collect();
-    let mut csv = CsvLog::new(ctx.out.join("data.csv"), &col_refs);
+    let mut rows = Vec::new();
     let mut series: Vec<Vec<(f64, f64)>> = vec![vec![]; MU.len()];
     let angles: Vec<f64> = (0..SAMPLES)
         .map(|i| THETA_MIN_DEG * (180.0 / THETA_MIN_DEG).powf(i as f64 / (SAMPLES - 1) as f64))
@@ -93,9 +93,9 @@ fn run(ctx: &Context) -> Result<()> {
             row.push(v);
             s.push((deg, v));
         }
-        csv.push(&row);
+        rows.push(row);
     }
-    csv.flush()?;
+    write_columns(&ctx.out.join("data.csv"), &cols, &rows)?;
     let mut plot = Plot::new(
         "Fournier–Forand phase function (eqs A.9–A.12), n = 1.05",
         "scattering angle θ [degrees]",

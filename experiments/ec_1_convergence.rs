@@ -20,8 +20,9 @@ use anyhow::Result;
 use crate::convergence_cases::{self as cases, Sampling, Study};
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style};
 use crate::registry::{Context, Experiment, Size};
+use crate::table::write_columns;
 use smokelab::advection::Backtrace;
-use smokelab::io::{self, manifest::Manifest, CsvLog};
+use smokelab::io::{self, manifest::Manifest};
 use smokelab::noise::curl::FdScheme;
 
 /// Registry entry.
@@ -141,15 +142,14 @@ fn run(ctx: &Context) -> Result<()> {
     let mut summary = vec![];
     for s in &studies {
         let fit = s.fit();
-        let mut csv = CsvLog::new(
-            ctx.out.join(format!("{}.csv", s.name)),
-            &["h", "error", "rate"],
-        );
-        for i in 0..s.h.len() {
-            let rate = if i == 0 { f64::NAN } else { fit.rates[i - 1] };
-            csv.push(&[s.h[i], s.error[i], rate]);
-        }
-        csv.flush()?;
+        let rows: Vec<Vec<f64>> = (0..s.h.len())
+            .map(|i| {
+                let rate = if i == 0 { f64::NAN } else { fit.rates[i - 1] };
+                vec![s.h[i], s.error[i], rate]
+            })
+            .collect();
+        let cols = ["h", "error", "rate"].map(String::from);
+        write_columns(&ctx.out.join(format!("{}.csv", s.name)), &cols, &rows)?;
         plot_study(ctx, s, fit.order)?;
         let ok = (fit.order - s.expected).abs() <= BAND;
         let rates: Vec<String> = fit.rates.iter().map(|r| format!("{r:.2}")).collect();

@@ -23,7 +23,6 @@
 //! its flux through any closed curve is zero — but stencils that straddle a
 //! cell face see the kink of `V_x` there, and `|∇V|` picks up its jumps.
 
-use std::io::Write;
 use std::time::Instant;
 
 use anyhow::Result;
@@ -31,6 +30,7 @@ use glam::{Vec2, Vec3};
 use serde::Serialize;
 
 use crate::registry::{Context, Experiment, Size};
+use crate::table::write_rows;
 use smokelab::field::VectorField;
 use smokelab::io::{self, manifest::Manifest};
 use smokelab::noise::fractal::Fractal;
@@ -102,9 +102,17 @@ fn run(ctx: &Context) -> Result<()> {
         seed: 3,
     };
     io::create_output_dir(&ctx.out)?;
-    let mut csv = String::from(
-        "kind,rms_speed,p99_speed,mean_abs_divergence,mean_abs_gradient,relative_divergence\n",
-    );
+    /// One row of `data.csv`.
+    #[derive(Serialize)]
+    struct Row {
+        kind: &'static str,
+        rms_speed: f64,
+        p99_speed: f32,
+        mean_abs_divergence: f64,
+        mean_abs_gradient: f64,
+        relative_divergence: f64,
+    }
+    let mut rows = Vec::new();
     let mut panels = Vec::new();
     let mut extra = serde_json::Map::new();
     for kind in &config.kinds {
@@ -134,11 +142,14 @@ fn run(ctx: &Context) -> Result<()> {
             (vel.iter().map(|v| v.length_squared() as f64).sum::<f64>() / vel.len() as f64).sqrt();
         let p99 = lic::speed_scale(&vel);
         let (div, grad) = divergence_stats(&*field, config.extent, 128, 1e-3);
-        csv.push_str(&format!(
-            "{},{rms},{p99},{div},{grad},{}\n",
-            kind.name(),
-            div / grad
-        ));
+        rows.push(Row {
+            kind: kind.name(),
+            rms_speed: rms,
+            p99_speed: p99,
+            mean_abs_divergence: div,
+            mean_abs_gradient: grad,
+            relative_divergence: div / grad,
+        });
         extra.insert(
             kind.name().into(),
             serde_json::json!({ "rms_speed": rms, "relative_divergence": div / grad }),
@@ -148,9 +159,7 @@ fn run(ctx: &Context) -> Result<()> {
         &ctx.out.join("fig3.png"),
         &io::preview::side_by_side(&panels, 6),
     )?;
-    io::write_atomic(&ctx.out.join("data.csv"), |w| {
-        Ok(w.write_all(csv.as_bytes())?)
-    })?;
+    write_rows(&ctx.out.join("data.csv"), &rows)?;
     let seed = config.seed;
     io::write_json(
         &ctx.out.join("manifest.json"),

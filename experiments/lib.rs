@@ -15,6 +15,7 @@ pub mod paper;
 
 // Figures and tables.
 pub mod plot;
+pub mod table;
 
 // Numbered experiments: the registry, their shared pieces, one file each.
 pub mod registry;

@@ -9,9 +9,9 @@
 //! - `render_NNNN.exr`, `render_NNNN.png` — volume renders (with `--render`);
 //! - `obstacle.npy` — f32 `(nz, ny, nx)` obstacle level set at the cell
 //!   centres, positive inside, world units (runs with obstacles);
-//! - `metrics.csv` — one row per step, rewritten whole at every saved frame
-//!   (columns: [`metric_columns`]); the fine-sampled density measures are
-//!   computed every `metrics_every` steps and the last, `NaN` in between;
+//! - `metrics.csv` — one row per step ([`MetricsRow`]), appended and flushed
+//!   as each step ends; the fine-sampled density measures are computed every
+//!   `metrics_every` steps and the last, `NaN` in between;
 //! - `manifest.json` — configuration, machine, commit, wall time, peak memory.
 //!
 //! Frame `N` is the state after `N` steps.
@@ -24,14 +24,14 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use crate::frames::{FrameRecord, FrameRender};
-use smokelab::boundary::Leak;
+use crate::table::{field_names, Log};
 use smokelab::density::probe::{self, DensityMeasures, DensityProbe};
 use smokelab::density::DensityMode;
 use smokelab::grid::ScalarGrid;
-use smokelab::io::{self, manifest::Manifest, preview, CsvLog};
+use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::metrics;
 use smokelab::simulation::Simulation;
-use smokelab::timing::timed;
+use smokelab::timing::{timed, StageTimes};
 
 /// Which frames to write and how to report progress.
 #[derive(Clone, Debug)]
@@ -106,7 +106,8 @@ pub struct RunSummary {
 /// Refinement of the quadrature of `∫S dV` for the injected-mass budget.
 const SOURCE_REFINE: usize = 4;
 
-/// Column names of `metrics.csv` for a simulation's gases:
+/// One row of `metrics.csv`: its fields, in order, are the columns (nested
+/// parts flattened; [`metric_columns`] names them):
 /// - `step, time, max_u, cfl, div_rms, div_max`;
 /// - per gas `<g>_mass` (∫ρ at 2× the velocity grid), `<g>_injected` (the
 ///   exact budget of what the representation injected, `steps · Δt · rate`:
@@ -114,43 +115,111 @@ const SOURCE_REFINE: usize = 4;
 ///   gridless and SELMA evaluate `S` anywhere, rate `∫S dV` by 4×
 ///   supersampling), `<g>_max` (peak ρ at 2×), `<g>_grad` (mean |∇ρ| at 2×),
 ///   `<g>_subgrid` (share of spectral energy beyond the velocity grid's
-///   Nyquist index) — see [`smokelab::density::probe`];
-/// - `mirror_error` (two gases; densities at the cell centres) and
-///   `vel_mirror_error` (the velocity, [`metrics::velocity_mirror_error`]);
-/// - `density_bytes` (all gases' representations, shared buffers once);
-/// - wall seconds per stage `t_advect, t_density` (gridless/SELMA evaluation
-///   at the cell centres for buoyancy), `t_force, t_project, t_output,
-///   t_metrics` (the fine measures).
-pub fn metric_columns(sim: &Simulation) -> Vec<String> {
-    let mut cols: Vec<String> = ["step", "time", "max_u", "cfl", "div_rms", "div_max"]
-        .map(String::from)
-        .to_vec();
-    for g in &sim.gases {
-        for m in ["mass", "injected", "max", "grad", "subgrid"] {
-            cols.push(format!("{}_{m}", g.name));
+///   Nyquist index) — see [`smokelab::density::probe`]; the fine measures
+///   are `NaN` on steps without them;
+/// - `mirror_error` (two gases; densities at the cell centres),
+///   `vel_mirror_error` ([`metrics::velocity_mirror_error`]), `density_bytes`
+///   (all gases' representations, shared buffers once), `substeps` (QUICK);
+/// - with obstacles, [`ObstacleColumns`];
+/// - wall seconds per stage, [`StageColumns`].
+#[derive(Serialize)]
+struct MetricsRow {
+    step: StepColumns,
+    gases: Vec<GasColumns>,
+    /// One value with two gases, none otherwise.
+    mirror_error: Vec<f32>,
+    flow: FlowColumns,
+    /// One entry with obstacles, none otherwise.
+    obstacles: Vec<ObstacleColumns>,
+    times: StageColumns,
+}
+
+/// The step and the velocity's measures.
+#[derive(Default, Serialize)]
+struct StepColumns {
+    step: usize,
+    time: f32,
+    max_u: f32,
+    cfl: f32,
+    div_rms: f32,
+    div_max: f32,
+}
+
+/// One gas's measures; the columns are prefixed with the gas's name.
+#[derive(Default, Serialize)]
+struct GasColumns {
+    mass: f64,
+    injected: f64,
+    max: f64,
+    grad: f64,
+    subgrid: f64,
+}
+
+/// Symmetry, memory and QUICK sub-steps.
+#[derive(Default, Serialize)]
+struct FlowColumns {
+    vel_mirror_error: f32,
+    density_bytes: usize,
+    substeps: usize,
+}
+
+/// How well obstacles hold ([`Leak`]) and QUICK's open-face projection.
+#[derive(Default, Serialize)]
+pub struct ObstacleColumns {
+    /// Central-difference divergence over the fluid cells, rms and max.
+    div_fluid_rms: f32,
+    div_fluid_max: f32,
+    /// Inward normal velocity over the obstacles' rim, rms and max.
+    rim_inward_rms: f32,
+    rim_inward_max: f32,
+    /// Density deeper than one cell inside obstacles, and its share.
+    obstacle_mass: f64,
+    obstacle_fraction: f64,
+    /// QUICK's face projection: CG iterations and relative residual.
+    face_cg_iterations: usize,
+    face_div_rel: f32,
+}
+
+/// Wall seconds per stage of the step (see [`smokelab::timing::StageTimes`]).
+#[derive(Default, Serialize)]
+struct StageColumns {
+    t_advect: f64,
+    t_density: f64,
+    t_force: f64,
+    t_project: f64,
+    t_output: f64,
+    t_metrics: f64,
+}
+
+impl From<StageTimes> for StageColumns {
+    fn from(t: StageTimes) -> Self {
+        Self {
+            t_advect: t.advect,
+            t_density: t.density,
+            t_force: t.force,
+            t_project: t.project,
+            t_output: t.output,
+            t_metrics: t.metrics,
         }
+    }
+}
+
+/// Column names of `metrics.csv` for a simulation: the field names of
+/// [`MetricsRow`]'s parts, in order.
+pub fn metric_columns(sim: &Simulation) -> Vec<String> {
+    let mut cols = field_names(&StepColumns::default());
+    let gas = field_names(&GasColumns::default());
+    for g in &sim.gases {
+        cols.extend(gas.iter().map(|m| format!("{}_{m}", g.name)));
     }
     if sim.gases.len() == 2 {
         cols.push("mirror_error".into());
     }
-    cols.push("vel_mirror_error".into());
-    cols.push("density_bytes".into());
-    cols.push("substeps".into());
+    cols.extend(field_names(&FlowColumns::default()));
     if sim.boundary.is_some() {
-        cols.extend(Leak::COLUMNS.map(String::from));
-        cols.extend(["face_cg_iterations", "face_div_rel"].map(String::from));
+        cols.extend(field_names(&ObstacleColumns::default()));
     }
-    cols.extend(
-        [
-            "t_advect",
-            "t_density",
-            "t_force",
-            "t_project",
-            "t_output",
-            "t_metrics",
-        ]
-        .map(String::from),
-    );
+    cols.extend(field_names(&StageColumns::default()));
     cols
 }
 
@@ -177,9 +246,7 @@ pub fn run_with<C: Serialize>(
     mut at_saved: impl FnMut(&Simulation, usize) -> Result<()>,
 ) -> Result<RunSummary> {
     let start = Instant::now();
-    let cols = metric_columns(sim);
-    let col_refs: Vec<&str> = cols.iter().map(String::as_str).collect();
-    let mut csv = CsvLog::new(opts.out.join("metrics.csv"), &col_refs);
+    let mut csv = Log::create(opts.out.join("metrics.csv"), &metric_columns(sim))?;
     let bar = if opts.progress {
         ProgressBar::new(opts.frames as u64).with_style(
             ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} steps {msg}")
@@ -226,7 +293,6 @@ pub fn run_with<C: Serialize>(
     let every = opts.metrics_every.max(1);
     for frame in 1..=opts.frames {
         if let Err(e) = sim.try_step() {
-            csv.flush()?;
             bail!(
                 "step {frame}: {e}; frames written so far are in {}",
                 opts.out.display()
@@ -235,7 +301,6 @@ pub fn run_with<C: Serialize>(
         let mut times = sim.times;
         let finite = sim.velocity.is_finite();
         if !finite {
-            csv.flush()?;
             bail!(
                 "velocity became non-finite at step {frame}; frames written so far are in {}",
                 opts.out.display()
@@ -264,46 +329,55 @@ pub fn run_with<C: Serialize>(
             let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
             summary.renders.push(record);
         }
-        let mut row = vec![
-            frame as f64,
-            sim.time() as f64,
-            max_u as f64,
-            (max_u * sim.params.dt / sim.domain().cell) as f64,
-            div.rms as f64,
-            div.max as f64,
-        ];
-        for (n, rate) in summary.injection_rates.iter().enumerate() {
-            let m = measures.as_ref().map(|m| m[n]);
-            row.extend([
-                m.map_or(f64::NAN, |m| m.mass),
-                frame as f64 * sim.params.dt as f64 * rate,
-                m.map_or(f64::NAN, |m| m.max),
-                m.map_or(f64::NAN, |m| m.mean_gradient),
-                m.map_or(f64::NAN, |m| m.subgrid_fraction),
-            ]);
-        }
-        row.extend(mirror.map(|m| m as f64));
-        row.push(metrics::velocity_mirror_error(&sim.velocity) as f64);
-        row.push(density_bytes as f64);
-        row.push(sim.advector().substeps() as f64);
-        if let Some(b) = &sim.boundary {
+        let gases = summary
+            .injection_rates
+            .iter()
+            .enumerate()
+            .map(|(n, rate)| {
+                let m = measures.as_ref().map(|m| m[n]);
+                GasColumns {
+                    mass: m.map_or(f64::NAN, |m| m.mass),
+                    injected: frame as f64 * sim.params.dt as f64 * rate,
+                    max: m.map_or(f64::NAN, |m| m.max),
+                    grad: m.map_or(f64::NAN, |m| m.mean_gradient),
+                    subgrid: m.map_or(f64::NAN, |m| m.subgrid_fraction),
+                }
+            })
+            .collect();
+        let obstacles = sim.boundary.as_ref().map(|b| {
             let densities: Vec<_> = sim.gases.iter().map(|g| g.density()).collect();
-            row.extend(b.leak(&sim.velocity, &densities).row());
+            let leak = b.leak(&sim.velocity, &densities);
             let (iterations, residual) = sim.advector().face_projection_stats().unwrap_or((0, 0.0));
-            row.extend([iterations as f64, residual as f64]);
-        }
-        row.extend([
-            times.advect,
-            times.density,
-            times.force,
-            times.project,
-            times.output,
-            times.metrics,
-        ]);
-        csv.push(&row);
-        if summary.saved_frames.last() == Some(&frame) {
-            csv.flush()?;
-        }
+            ObstacleColumns {
+                div_fluid_rms: leak.div_fluid.rms,
+                div_fluid_max: leak.div_fluid.max,
+                rim_inward_rms: leak.rim_inward.rms,
+                rim_inward_max: leak.rim_inward.max,
+                obstacle_mass: leak.mass_inside,
+                obstacle_fraction: leak.mass_fraction,
+                face_cg_iterations: iterations,
+                face_div_rel: residual,
+            }
+        });
+        csv.push(&MetricsRow {
+            step: StepColumns {
+                step: frame,
+                time: sim.time(),
+                max_u,
+                cfl: max_u * sim.params.dt / sim.domain().cell,
+                div_rms: div.rms,
+                div_max: div.max,
+            },
+            gases,
+            mirror_error: mirror.into_iter().collect(),
+            flow: FlowColumns {
+                vel_mirror_error: metrics::velocity_mirror_error(&sim.velocity),
+                density_bytes,
+                substeps: sim.advector().substeps(),
+            },
+            obstacles: obstacles.into_iter().collect(),
+            times: times.into(),
+        })?;
         let s = &mut summary.stage_seconds;
         s.advect += times.advect;
         s.density += times.density;
@@ -320,7 +394,6 @@ pub fn run_with<C: Serialize>(
         bar.inc(1);
     }
     bar.finish_and_clear();
-    csv.flush()?;
     summary.wall_seconds = start.elapsed().as_secs_f64();
     let extra = serde_json::to_value(&summary)?;
     io::write_json(

@@ -12,13 +12,14 @@ use std::io::Write;
 use std::path::Path;
 use std::time::Instant;
 
-use anyhow::{Context as _, Result};
+use anyhow::Result;
 use glam::Vec3;
 use image::RgbImage;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
 use crate::registry::{Context, Size};
+use crate::table::read_rows;
 use smokelab::density::probe;
 use smokelab::domain::Domain;
 use smokelab::fit::{linear_fit, LinearFit};
@@ -248,8 +249,8 @@ pub(crate) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Re
     )
 }
 
-/// One measured render of a cost study.
-#[derive(Clone, Debug)]
+/// One measured render of a cost study: a row of its `data.csv`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub(crate) struct CostRow {
     /// Series name (`march=cell`, `selma-fine`, …).
     pub series: String,
@@ -286,38 +287,6 @@ impl CostRow {
     }
 }
 
-/// Write `data.csv` of a cost study.
-pub(crate) fn write_costs(path: &Path, rows: &[CostRow]) -> Result<()> {
-    let mut s = String::from("series,frames,render_seconds,density_bytes,samples\n");
-    for r in rows {
-        s.push_str(&format!(
-            "{},{},{},{},{}\n",
-            r.series, r.frames, r.render_seconds, r.density_bytes, r.samples
-        ));
-    }
-    io::write_atomic(path, |w| Ok(w.write_all(s.as_bytes())?))
-}
-
-/// Read a cost study's `data.csv` back.
-pub(crate) fn read_costs(path: &Path) -> Result<Vec<CostRow>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    text.lines()
-        .skip(1)
-        .map(|l| {
-            let c: Vec<&str> = l.split(',').collect();
-            anyhow::ensure!(c.len() == 5, "{}: bad line '{l}'", path.display());
-            Ok(CostRow {
-                series: c[0].into(),
-                frames: c[1].parse()?,
-                render_seconds: c[2].parse()?,
-                density_bytes: c[3].parse()?,
-                samples: c[4].parse()?,
-            })
-        })
-        .collect()
-}
-
 /// The fitted slopes of one series: seconds and MiB per frame.
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct SeriesFit {
@@ -335,7 +304,7 @@ const MIB: f64 = 1048576.0;
 /// (`time.{png,svg}`, `memory.{png,svg}`, both on `costs.png`), each series
 /// with its least-squares slope printed, and return the fits.
 pub(crate) fn plot_costs(dir: &Path, title: &str, x_label: &str) -> Result<Vec<SeriesFit>> {
-    let rows = read_costs(&dir.join("data.csv"))?;
+    let rows: Vec<CostRow> = read_rows(&dir.join("data.csv"))?;
     let mut names: Vec<String> = vec![];
     for r in &rows {
         if !names.contains(&r.series) {

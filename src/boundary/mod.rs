@@ -281,30 +281,6 @@ pub struct Leak {
     pub mass_fraction: f64,
 }
 
-impl Leak {
-    /// Column names of [`Self::row`].
-    pub const COLUMNS: [&'static str; 6] = [
-        "div_fluid_rms",
-        "div_fluid_max",
-        "rim_inward_rms",
-        "rim_inward_max",
-        "obstacle_mass",
-        "obstacle_fraction",
-    ];
-
-    /// The values for `metrics.csv`.
-    pub fn row(&self) -> [f64; 6] {
-        [
-            self.div_fluid.rms as f64,
-            self.div_fluid.max as f64,
-            self.rim_inward.rms as f64,
-            self.rim_inward.max as f64,
-            self.mass_inside,
-            self.mass_fraction,
-        ]
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -63,35 +63,6 @@ pub fn write_png(path: &Path, img: &image::RgbImage) -> Result<()> {
     })
 }
 
-/// A CSV table kept in memory and rewritten whole on every [`CsvLog::flush`].
-#[derive(Clone, Debug)]
-pub struct CsvLog {
-    path: PathBuf,
-    text: String,
-}
-
-impl CsvLog {
-    /// A table with the given column names.
-    pub fn new(path: PathBuf, columns: &[&str]) -> Self {
-        Self {
-            path,
-            text: columns.join(",") + "\n",
-        }
-    }
-
-    /// Append one row of numbers.
-    pub fn push(&mut self, row: &[f64]) {
-        let cells: Vec<String> = row.iter().map(|v| format!("{v}")).collect();
-        self.text.push_str(&cells.join(","));
-        self.text.push('\n');
-    }
-
-    /// Rewrite the file with every row so far.
-    pub fn flush(&self) -> Result<()> {
-        write_atomic(&self.path, |w| Ok(w.write_all(self.text.as_bytes())?))
-    }
-}
-
 /// Check that `dir` can be used as an output folder: it is a folder or does
 /// not exist yet, and its nearest existing ancestor is a writable folder
 /// (not a file such as `/dev/null`).
