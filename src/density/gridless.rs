@@ -29,6 +29,7 @@
 //! walks back one step at a time, so each stored grid is streamed once per
 //! batch and the source costs one batched call per step.
 
+use crate::density::BackwardMap;
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -36,7 +37,7 @@ use glam::Vec3;
 use super::{wrap_grid, Buffer, StepInput};
 use crate::advection::{departure_point, Backtrace};
 use crate::domain::Domain;
-use crate::field::{Scalar, ScalarField, VectorField};
+use crate::field::{Scalar, ScalarField};
 use crate::grid::{ScalarGrid, VectorGrid};
 
 /// One stored step of the velocity history.
@@ -110,7 +111,7 @@ impl GridlessField {
     }
 }
 
-impl GridlessField {
+impl BackwardMap for GridlessField {
     /// The backward map of the whole chain, `X_n = B_1 ∘ B_2 ∘ … ∘ B_n`
     /// (eq 7.4 without the source): each world point walked back through
     /// every stored step, newest first, wrapped into the box. The
@@ -118,7 +119,7 @@ impl GridlessField {
     ///
     /// # Panics
     /// If the slices differ in length.
-    pub fn map_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
+    fn map_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
         assert_eq!(points.len(), out.len(), "map_batch: slice lengths differ");
         let d = &self.domain;
         for (o, &p) in out.iter_mut().zip(points) {
@@ -130,22 +131,6 @@ impl GridlessField {
         for o in out.iter_mut() {
             *o = d.world_of(*o);
         }
-    }
-}
-
-/// [`GridlessField::map_batch`] as a vector field, to compose densities with
-/// (`ops::compose(ρ₀, map)`).
-pub struct GridlessMap(pub GridlessField);
-
-impl VectorField for GridlessMap {
-    fn eval(&self, p: Vec3) -> Vec3 {
-        let mut out = [Vec3::ZERO];
-        self.0.map_batch(&[p], &mut out);
-        out[0]
-    }
-
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        self.0.map_batch(points, out);
     }
 }
 

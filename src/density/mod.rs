@@ -40,12 +40,39 @@ use serde::{Deserialize, Serialize};
 use crate::advection::Backtrace;
 use crate::domain::Domain;
 use crate::error::InputError;
-use crate::field::Scalar;
+use crate::field::{Scalar, VectorField};
 use crate::grid::{ScalarGrid, VectorGrid};
 
 pub use gridded::Gridded;
-pub use gridless::{Gridless, GridlessField, GridlessMap};
-pub use selma::{Selma, SelmaField, SelmaMap};
+pub use gridless::{Gridless, GridlessField};
+pub use selma::{Selma, SelmaField};
+
+/// A backward characteristic map `X(x)`, evaluated at many points at once:
+/// where the fluid now at `x` came from (gridless: the walk of eq 7.4;
+/// SELMA: the map grid of eq 8.8).
+pub trait BackwardMap: Send + Sync {
+    /// `out[i] = X(points[i])`, wrapped into the box.
+    ///
+    /// # Panics
+    /// If the slices differ in length.
+    fn map_batch(&self, points: &[Vec3], out: &mut [Vec3]);
+}
+
+/// A [`BackwardMap`] as a vector field, to compose densities with
+/// (`ops::compose(ρ₀, map)`, eq 8.8's `compose(initialdensity, Xmap)`).
+pub struct MapField<M>(pub M);
+
+impl<M: BackwardMap> VectorField for MapField<M> {
+    fn eval(&self, p: Vec3) -> Vec3 {
+        let mut out = [Vec3::ZERO];
+        self.0.map_batch(&[p], &mut out);
+        out[0]
+    }
+
+    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
+        self.0.map_batch(points, out);
+    }
+}
 
 /// How the density of every gas is held.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -82,6 +82,7 @@
 //! Every term vanishes as `h → 0` for any `τ`, so SELMA converges to the
 //! gridless density as the map grid refines.
 
+use crate::density::BackwardMap;
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -90,7 +91,7 @@ use rayon::prelude::*;
 use super::{wrap_world, Buffer, StepInput};
 use crate::advection::departure_point;
 use crate::domain::Domain;
-use crate::field::{Scalar, ScalarField, VectorField};
+use crate::field::{Scalar, ScalarField};
 use crate::grid::{ScalarGrid, VectorGrid};
 
 /// Corrector iterations of the forward (inverse-backtrace) step of the
@@ -122,30 +123,14 @@ pub struct SelmaField {
     initial: Option<Scalar>,
 }
 
-impl SelmaField {
+impl BackwardMap for SelmaField {
     /// The map `X(x)` at world points (wrapped into the box).
-    pub fn map_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
+    fn map_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
         assert_eq!(points.len(), out.len(), "map_batch: slice lengths differ");
         let md = self.disp.domain();
         for (x, &p) in out.iter_mut().zip(points) {
             *x = wrap_world(md, p + self.disp.sample_grid_coords(md.grid_coords(p)));
         }
-    }
-}
-
-/// [`SelmaField::map_batch`] as a vector field, to compose densities with
-/// (`ops::compose(ρ₀, map)`, eq 8.8's `compose(initialdensity, Xmap)`).
-pub struct SelmaMap(pub SelmaField);
-
-impl VectorField for SelmaMap {
-    fn eval(&self, p: Vec3) -> Vec3 {
-        let mut out = [Vec3::ZERO];
-        self.0.map_batch(&[p], &mut out);
-        out[0]
-    }
-
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        self.0.map_batch(points, out);
     }
 }
 

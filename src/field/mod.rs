@@ -25,6 +25,10 @@ pub trait ScalarField: Send + Sync {
 
     /// Values at many points: `out[i] = eval(points[i])`.
     ///
+    /// The default is compiled for each implementation, calling its `eval`
+    /// statically (inlined where `eval` is small), so an implementation
+    /// overrides it only to do better than one point at a time.
+    ///
     /// # Panics
     /// If the slices differ in length.
     fn eval_batch(&self, points: &[Vec3], out: &mut [f32]) {

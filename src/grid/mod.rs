@@ -6,9 +6,11 @@
 //! [`ScalarGrid::from_field`] and [`VectorGrid::from_field`]).
 
 mod interpolate;
+mod samples;
 mod scalar;
 mod vector;
 
 pub use interpolate::{Stencil, Wrap};
+pub use samples::Grid;
 pub use scalar::ScalarGrid;
 pub use vector::VectorGrid;

@@ -1,9 +1,10 @@
 //! Scalar grid: one f32 per cell centre.
 
 use glam::Vec3;
-use ndarray::Array3;
+use ndarray::{Array3, Ix3};
 use rayon::prelude::*;
 
+use super::samples::{write_slabs, Grid};
 use super::{Stencil, Wrap};
 use crate::domain::Domain;
 use crate::field::ScalarField;
@@ -12,14 +13,9 @@ use crate::field::ScalarField;
 ///
 /// As a [`ScalarField`] it interpolates trilinearly (`cacheread`), periodic or
 /// clamped according to its [`Wrap`].
-#[derive(Clone, Debug)]
-pub struct ScalarGrid {
-    domain: Domain,
-    wrap: Wrap,
-    data: Array3<f32>,
-}
+pub type ScalarGrid = Grid<Ix3>;
 
-impl ScalarGrid {
+impl Grid<Ix3> {
     /// A grid of zeros, periodic.
     pub fn zeros(domain: Domain) -> Self {
         Self {
@@ -34,17 +30,8 @@ impl ScalarGrid {
     /// # Panics
     /// If the array's shape is not the domain's.
     pub fn from_array(domain: Domain, data: Array3<f32>) -> Self {
-        assert_eq!(
-            data.dim(),
-            domain.shape(),
-            "array shape is not the domain's"
-        );
-        let data = data.as_standard_layout().into_owned();
-        Self {
-            domain,
-            wrap: Wrap::Periodic,
-            data,
-        }
+        let (nz, ny, nx) = domain.shape();
+        Self::checked(domain, data, &[nz, ny, nx])
     }
 
     /// `cachewrite`: sample a field at every cell centre, in parallel batches
@@ -58,57 +45,9 @@ impl ScalarGrid {
     /// Overwrite the samples with `field` at every cell centre.
     pub fn write_field(&mut self, field: &dyn ScalarField) {
         let domain = self.domain;
-        let slab = domain.dims[0] * domain.dims[1];
-        self.as_slice_mut()
-            .par_chunks_mut(slab)
-            .enumerate()
-            .for_each_init(Vec::new, |points, (k, out)| {
-                domain.slab_centers(k, points);
-                field.eval_batch(points, out);
-            });
-    }
-
-    /// The same grid with a different out-of-range rule.
-    pub fn with_wrap(mut self, wrap: Wrap) -> Self {
-        self.wrap = wrap;
-        self
-    }
-
-    /// The domain the samples live on.
-    pub fn domain(&self) -> &Domain {
-        &self.domain
-    }
-
-    /// Out-of-range rule used by interpolation.
-    pub fn wrap(&self) -> Wrap {
-        self.wrap
-    }
-
-    /// The samples.
-    pub fn data(&self) -> &Array3<f32> {
-        &self.data
-    }
-
-    /// The samples, mutable.
-    pub fn data_mut(&mut self) -> &mut Array3<f32> {
-        &mut self.data
-    }
-
-    /// Take the samples.
-    pub fn into_array(self) -> Array3<f32> {
-        self.data
-    }
-
-    /// Samples as a flat `[z][y][x]` slice.
-    pub fn as_slice(&self) -> &[f32] {
-        self.data.as_slice().expect("grids are in standard layout")
-    }
-
-    /// Samples as a flat mutable slice.
-    pub fn as_slice_mut(&mut self) -> &mut [f32] {
-        self.data
-            .as_slice_mut()
-            .expect("grids are in standard layout")
+        write_slabs(domain, self.as_slice_mut(), |p, out| {
+            field.eval_batch(p, out)
+        });
     }
 
     /// Trilinear sample at continuous grid coordinates (cell centres at integers).

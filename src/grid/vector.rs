@@ -1,23 +1,19 @@
 //! Vector grid: three interleaved f32 components per cell centre.
 
 use glam::Vec3;
-use ndarray::Array4;
+use ndarray::{Array4, Ix4};
 use rayon::prelude::*;
 
+use super::samples::{write_slabs, Grid};
 use super::{Stencil, Wrap};
 use crate::domain::Domain;
 use crate::field::VectorField;
 
 /// Vector samples on the cell centres of a [`Domain`], shape `(nz, ny, nx, 3)`
 /// with components `x, y, z` interleaved (the `.npy` layout smokelab writes).
-#[derive(Clone, Debug)]
-pub struct VectorGrid {
-    domain: Domain,
-    wrap: Wrap,
-    data: Array4<f32>,
-}
+pub type VectorGrid = Grid<Ix4>;
 
-impl VectorGrid {
+impl Grid<Ix4> {
     /// A grid of zero vectors, periodic.
     pub fn zeros(domain: Domain) -> Self {
         let (nz, ny, nx) = domain.shape();
@@ -34,17 +30,7 @@ impl VectorGrid {
     /// If the array's shape is not the domain's.
     pub fn from_array(domain: Domain, data: Array4<f32>) -> Self {
         let (nz, ny, nx) = domain.shape();
-        assert_eq!(
-            data.dim(),
-            (nz, ny, nx, 3),
-            "array shape is not the domain's"
-        );
-        let data = data.as_standard_layout().into_owned();
-        Self {
-            domain,
-            wrap: Wrap::Periodic,
-            data,
-        }
+        Self::checked(domain, data, &[nz, ny, nx, 3])
     }
 
     /// `cachewrite`: sample a vector field at every cell centre, in parallel
@@ -58,52 +44,9 @@ impl VectorGrid {
     /// Overwrite the samples with `field` at every cell centre.
     pub fn write_field(&mut self, field: &dyn VectorField) {
         let domain = self.domain;
-        let slab = domain.dims[0] * domain.dims[1];
-        self.as_vec3_mut()
-            .par_chunks_mut(slab)
-            .enumerate()
-            .for_each_init(Vec::new, |points, (k, out)| {
-                domain.slab_centers(k, points);
-                field.eval_batch(points, out);
-            });
-    }
-
-    /// The same grid with a different out-of-range rule.
-    pub fn with_wrap(mut self, wrap: Wrap) -> Self {
-        self.wrap = wrap;
-        self
-    }
-
-    /// The domain the samples live on.
-    pub fn domain(&self) -> &Domain {
-        &self.domain
-    }
-
-    /// Out-of-range rule used by interpolation.
-    pub fn wrap(&self) -> Wrap {
-        self.wrap
-    }
-
-    /// The samples.
-    pub fn data(&self) -> &Array4<f32> {
-        &self.data
-    }
-
-    /// The samples, mutable.
-    pub fn data_mut(&mut self) -> &mut Array4<f32> {
-        &mut self.data
-    }
-
-    /// Samples as a flat interleaved slice.
-    pub fn as_slice(&self) -> &[f32] {
-        self.data.as_slice().expect("grids are in standard layout")
-    }
-
-    /// Samples as a flat mutable interleaved slice.
-    pub fn as_slice_mut(&mut self) -> &mut [f32] {
-        self.data
-            .as_slice_mut()
-            .expect("grids are in standard layout")
+        write_slabs(domain, self.as_vec3_mut(), |p, out| {
+            field.eval_batch(p, out)
+        });
     }
 
     /// Samples as one [`Vec3`] per cell, `[z][y][x]` order.
@@ -143,11 +86,6 @@ impl VectorGrid {
             .map(|v| v.length_squared() as f64)
             .sum();
         (s / self.domain.len() as f64).sqrt() as f32
-    }
-
-    /// Whether every component is finite.
-    pub fn is_finite(&self) -> bool {
-        self.as_slice().par_iter().all(|v| v.is_finite())
     }
 }
 

@@ -56,14 +56,9 @@ impl Curl {
 }
 
 impl VectorField for Curl {
+    #[inline]
     fn eval(&self, p: Vec3) -> Vec3 {
         self.sample(p)
-    }
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        for (o, &p) in out.iter_mut().zip(points) {
-            *o = self.sample(p);
-        }
     }
 }
 
@@ -89,14 +84,9 @@ impl Curl2 {
 }
 
 impl VectorField for Curl2 {
+    #[inline]
     fn eval(&self, p: Vec3) -> Vec3 {
         self.sample(p)
-    }
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        for (o, &p) in out.iter_mut().zip(points) {
-            *o = self.sample(p);
-        }
     }
 }
 
@@ -191,14 +181,9 @@ impl CurlFd {
 }
 
 impl VectorField for CurlFd {
+    #[inline]
     fn eval(&self, p: Vec3) -> Vec3 {
         self.sample(p)
-    }
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        for (o, &p) in out.iter_mut().zip(points) {
-            *o = self.sample(p);
-        }
     }
 }
 
@@ -238,14 +223,9 @@ impl CurlFd2 {
 }
 
 impl VectorField for CurlFd2 {
+    #[inline]
     fn eval(&self, p: Vec3) -> Vec3 {
         self.sample(p)
-    }
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        for (o, &p) in out.iter_mut().zip(points) {
-            *o = self.sample(p);
-        }
     }
 }
 

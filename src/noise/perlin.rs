@@ -252,14 +252,9 @@ impl PerlinVector {
 }
 
 impl VectorField for PerlinVector {
+    #[inline]
     fn eval(&self, p: Vec3) -> Vec3 {
         self.sample(p)
-    }
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        for (o, &p) in out.iter_mut().zip(points) {
-            *o = self.sample(p);
-        }
     }
 }
 

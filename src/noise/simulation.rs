@@ -143,14 +143,9 @@ impl<C: Corners, I: Interpolation> SimulationNoise<C, I> {
 }
 
 impl<C: Corners, I: Interpolation> VectorField for SimulationNoise<C, I> {
+    #[inline]
     fn eval(&self, p: Vec3) -> Vec3 {
         self.sample(p)
-    }
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        for (o, &p) in out.iter_mut().zip(points) {
-            *o = self.sample(p);
-        }
     }
 }
 
@@ -190,14 +185,9 @@ impl<C: Corners, I: Interpolation> SimulationNoise2<C, I> {
 }
 
 impl<C: Corners, I: Interpolation> VectorField for SimulationNoise2<C, I> {
+    #[inline]
     fn eval(&self, p: Vec3) -> Vec3 {
         self.sample(p)
-    }
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        for (o, &p) in out.iter_mut().zip(points) {
-            *o = self.sample(p);
-        }
     }
 }
 

@@ -46,14 +46,9 @@ impl<C: Corners> ValueNoise<C> {
 }
 
 impl<C: Corners> VectorField for ValueNoise<C> {
+    #[inline]
     fn eval(&self, p: Vec3) -> Vec3 {
         self.sample(p)
-    }
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        for (o, &p) in out.iter_mut().zip(points) {
-            *o = self.sample(p);
-        }
     }
 }
 
@@ -81,14 +76,9 @@ impl<C: Corners> ValueNoise2<C> {
 }
 
 impl<C: Corners> VectorField for ValueNoise2<C> {
+    #[inline]
     fn eval(&self, p: Vec3) -> Vec3 {
         self.sample(p)
-    }
-    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        for (o, &p) in out.iter_mut().zip(points) {
-            *o = self.sample(p);
-        }
     }
 }
 

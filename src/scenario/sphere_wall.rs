@@ -36,7 +36,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use crate::advection::{interpolate_scalar, Backtrace, Departures};
-use crate::density::{total_bytes, Buffer, GridlessField, GridlessMap, Selma, SelmaMap, StepInput};
+use crate::density::{total_bytes, Buffer, GridlessField, MapField, Selma, StepInput};
 use crate::domain::Domain;
 use crate::error::{check_non_negative, check_positive, InputError};
 use crate::field::{memo, ops, Scalar, ScalarField};
@@ -386,7 +386,7 @@ impl AdvectedWall {
         }
         this.buffers
             .extend(chain.velocities().map(|u| Buffer::of_vector(u)));
-        let map = memo::memo(Arc::new(GridlessMap(chain)));
+        let map = memo::memo(Arc::new(MapField(chain)));
         this.rows = this
             .rows
             .into_iter()
@@ -397,7 +397,7 @@ impl AdvectedWall {
 
     /// The analytic wall composed with the SELMA map, `ρ₀ ∘ X` (eq 8.8).
     pub fn selma(wall: &Wall, selma: &SelmaWall) -> Self {
-        let map = memo::memo(Arc::new(SelmaMap(selma.selma.field().clone())));
+        let map = memo::memo(Arc::new(MapField(selma.selma.field().clone())));
         let mut buffers = vec![];
         selma.selma.buffers(&mut buffers);
         Self {
