@@ -222,22 +222,8 @@ pub(crate) fn run_mode(
 /// Rows of images stacked, each row side by side, with `gap`-pixel dark
 /// separators.
 pub(crate) fn grid(rows: &[Vec<RgbImage>], gap: u32) -> RgbImage {
-    sheet(rows, gap, [40, 40, 40])
-}
-
-/// Rows of images on a background of colour `bg`.
-fn sheet(rows: &[Vec<RgbImage>], gap: u32, bg: [u8; 3]) -> RgbImage {
     let rows: Vec<RgbImage> = rows.iter().map(|r| preview::side_by_side(r, gap)).collect();
-    let w = rows.iter().map(|r| r.width()).max().unwrap_or(1);
-    let h =
-        rows.iter().map(|r| r.height()).sum::<u32>() + gap * rows.len().saturating_sub(1) as u32;
-    let mut out = RgbImage::from_pixel(w, h, image::Rgb(bg));
-    let mut y = 0;
-    for r in &rows {
-        image::imageops::replace(&mut out, r, 0, y as i64);
-        y += r.height() + gap;
-    }
-    out
+    preview::stacked(&rows, gap)
 }
 
 /// The colour of a mode in every plot.
@@ -403,8 +389,13 @@ pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
         let [png, _] = p.write(&out.join(format!("metrics_{name}")))?;
         pngs.push(image::open(&png)?.to_rgb8());
     }
+    // White blanks fill the last row, so the sheet has no dark corner.
+    let blank = RgbImage::from_pixel(pngs[0].width(), pngs[0].height(), image::Rgb([255; 3]));
+    while pngs.len() % 4 != 0 {
+        pngs.push(blank.clone());
+    }
     let rows: Vec<Vec<RgbImage>> = pngs.chunks(4).map(|c| c.to_vec()).collect();
-    io::write_png(&out.join("metrics.png"), &sheet(&rows, 0, [255; 3]))
+    io::write_png(&out.join("metrics.png"), &grid(&rows, 0))
 }
 
 /// One line of `summary.csv`.
