@@ -18,11 +18,13 @@ use rustfft::num_complex::Complex32;
 use rustfft::FftPlanner;
 
 use smokelab::field::VectorField;
-use smokelab::fit::observed_order;
 use smokelab::noise::curl::{CurlFd, CurlFd2, FdScheme};
 use smokelab::noise::lattice::keys;
 use smokelab::noise::spectral::{SpectralNoise, SpectralParams, SpectralTile, Spectrum};
 use smokelab::noise::{NoiseKind, NoiseSpec, Solenoidal};
+
+mod common;
+use common::assert_order;
 
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n).
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
@@ -280,11 +282,12 @@ fn finite_difference_curl_divergence_order() {
                     net / abs
                 })
                 .collect();
-            let fit = observed_order(&steps, &errors);
-            println!("curl-fd {dims}D {scheme:?}, relative net flux:\n{fit}");
-            assert!(
-                (fit.order - order).abs() <= 0.25,
-                "{dims}D {scheme:?}:\n{fit}"
+            assert_order(
+                &format!("curl-fd {dims}D {scheme:?}, relative net flux"),
+                &steps,
+                &errors,
+                order,
+                0.25,
             );
         }
     }
@@ -420,10 +423,14 @@ fn spectral_energy_spectrum_follows_the_prescribed_one() {
                 .filter(|&&n| n as f32 >= 2.0 * cutoff * params.res as f32)
                 .map(|&n| (n as f64, measured[n]))
                 .unzip();
-            // The log-log slope, by the convergence helper's fit.
-            let slope = observed_order(&ns, &es).order;
-            println!("Kolmogorov shell slope {slope:.3} over shells {ns:?}");
-            assert!((slope + 5.0 / 3.0).abs() <= 0.05, "slope {slope}");
+            // The log-log slope of the shell energy, −5/3 within 0.05.
+            assert_order(
+                &format!("Kolmogorov shells {ns:?}"),
+                &ns,
+                &es,
+                -5.0 / 3.0,
+                0.05,
+            );
         }
     }
 }

@@ -9,6 +9,9 @@ use smokelab::grid::VectorGrid;
 use smokelab::metrics::{divergence_stats, rms_max};
 use smokelab::projection::Projection;
 
+mod common;
+use common::taylor_green;
+
 fn random_field(domain: Domain, seed: u64) -> VectorGrid {
     let mut rng = Pcg64::seed_from_u64(seed);
     let mut g = VectorGrid::zeros(domain);
@@ -72,22 +75,6 @@ fn projecting_twice_changes_nothing() {
             "{dims:?}: second projection moved the field by {diff}"
         );
     }
-}
-
-fn taylor_green(domain: Domain, amplitude: f32) -> VectorGrid {
-    let [nx, ny, nz] = domain.dims;
-    let mut g = VectorGrid::zeros(domain);
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let p = domain.cell_center(i, j, k);
-                let v = &mut g.data_mut();
-                v[[k, j, i, 0]] = amplitude * p.x.sin() * p.y.cos();
-                v[[k, j, i, 1]] = -amplitude * p.x.cos() * p.y.sin();
-            }
-        }
-    }
-    g
 }
 
 #[test]

@@ -5,11 +5,13 @@ use glam::Vec3;
 use smokelab::advection::{self, quick, Backtrace, Limiter, QuickOptions};
 use smokelab::domain::Domain;
 use smokelab::field::{ops, ScalarField};
-use smokelab::fit::observed_order;
 use smokelab::grid::{ScalarGrid, VectorGrid};
 use smokelab::scenario::config::resolve;
 use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
+
+mod common;
+use common::{assert_order, swirl};
 
 /// A smooth periodic profile on the unit square (constant along z).
 struct Smooth(Vec3);
@@ -69,12 +71,13 @@ fn quick_converges_at_second_order_and_beats_sl() {
         h.push(hq);
         err.push(eq);
     }
-    let fit = observed_order(&h, &err);
-    println!("QUICK, Courant number {cfl} per unit speed:\n{fit}");
-    assert!(
-        (1.8..=2.3).contains(&fit.order),
-        "observed order {}",
-        fit.order
+    // The band [1.8, 2.3], centred.
+    assert_order(
+        &format!("QUICK, Courant number {cfl} per unit speed"),
+        &h,
+        &err,
+        2.05,
+        0.25,
     );
 }
 
@@ -95,23 +98,6 @@ fn min_max(q: &ScalarGrid) -> (f32, f32) {
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
             (a.min(v), b.max(v))
         })
-}
-
-/// A divergence-free swirl, projected on the central-difference operator.
-fn swirl(d: Domain) -> VectorGrid {
-    struct Swirl;
-    impl smokelab::field::VectorField for Swirl {
-        fn eval(&self, p: Vec3) -> Vec3 {
-            Vec3::new(
-                p.y.sin() + p.z.cos(),
-                p.z.sin() + 0.3 * p.x.cos(),
-                p.x.sin(),
-            )
-        }
-    }
-    let mut v = VectorGrid::from_field(d, &Swirl);
-    smokelab::projection::Projection::new(d).project(&mut v, 0.0, 1.0);
-    v
 }
 
 /// 100 steps of a sharp-edged, non-negative density: with the limiter it
@@ -416,40 +402,6 @@ fn slab_box_obstacles_hold() {
             );
         }
     }
-}
-
-/// Hot/cold with QUICK keeps the mirror symmetry hot ↔ cold, y ↔ L − y.
-#[test]
-fn hot_cold_quick_is_mirror_symmetric() {
-    let config = HotColdConfig {
-        solver: SolverConfig {
-            res: 32,
-            frames: 20,
-            advection: Scheme::Quick,
-            ..SolverConfig::default()
-        },
-        ..Default::default()
-    };
-    let mut sim = config.build().unwrap();
-    let hot0 = {
-        sim.step();
-        sim.gases[0].density().center_of_mass()
-    };
-    for _ in 1..config.solver.frames {
-        sim.step();
-    }
-    let (hot, cold) = (sim.gases[0].density(), sim.gases[1].density());
-    let err = smokelab::metrics::mirror_error(hot, cold);
-    println!(
-        "QUICK mirror error after {} steps: {err:.3e}",
-        config.solver.frames
-    );
-    assert!(err <= 1e-4, "mirror error {err}");
-    assert!(
-        hot.center_of_mass().y > hot0.y + 0.01,
-        "hot gas did not rise"
-    );
-    assert!(hot.as_slice().iter().all(|&v| v >= 0.0), "negative density");
 }
 
 /// How the boundary rule and the periodic projection share a step: for 1–8

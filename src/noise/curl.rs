@@ -102,6 +102,9 @@ pub enum FdScheme {
 }
 
 impl FdScheme {
+    /// Every rule.
+    pub const ALL: [FdScheme; 2] = [FdScheme::Backward, FdScheme::Central];
+
     /// `∂_e n` at `p` with step `h`.
     #[inline(always)]
     fn derivative(self, n: impl Fn(Vec3) -> f32, p: Vec3, e: Vec3, h: f32) -> f32 {

@@ -27,6 +27,11 @@ pub enum ExrPrecision {
     F32,
 }
 
+impl ExrPrecision {
+    /// Every precision.
+    pub const ALL: [ExrPrecision; 2] = [ExrPrecision::Half, ExrPrecision::F32];
+}
+
 /// Write `img` as an RGBA OpenEXR file (linear, premultiplied), atomically.
 pub fn write_exr(path: &Path, img: &Image, precision: ExrPrecision) -> Result<()> {
     let (w, h) = (img.width as usize, img.height as usize);

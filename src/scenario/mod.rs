@@ -20,3 +20,8 @@ pub enum ScenarioKind {
     /// Buoyant gas in a closed box flowing around a slab (§6.3, fig 6.6).
     SlabBox,
 }
+
+impl ScenarioKind {
+    /// Every scenario.
+    pub const ALL: [ScenarioKind; 2] = [ScenarioKind::HotCold, ScenarioKind::SlabBox];
+}
