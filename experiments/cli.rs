@@ -75,6 +75,12 @@ pub struct RunArgs {
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Also write each saved frame as OpenVDB, `frame_NNNN.vdb` (Houdini, Blender).
+    #[arg(long)]
+    pub vdb: bool,
+    /// Also write each saved frame as VTK image data, `frame_NNNN.vti`, listed in `run.pvd` (ParaView).
+    #[arg(long)]
+    pub paraview: bool,
     /// Volume-render frames to render_NNNN.exr/.png.
     #[arg(long)]
     pub render: bool,
@@ -362,6 +368,8 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         metrics_every: s.metrics_every,
         sample_res: s.sample_res,
         render,
+        vdb: args.vdb,
+        paraview: args.paraview,
     };
     let summary = run::run(&mut sim, &opts, config, s.seed)?;
     println!(

@@ -195,6 +195,8 @@ pub(crate) fn run_mode(
         metrics_every: config.solver.metrics_every,
         sample_res: None,
         render: None,
+        vdb: false,
+        paraview: false,
     };
     let mut frames = Vec::new();
     run::run_with(&mut sim, &opts, config, config.solver.seed, |sim, _| {

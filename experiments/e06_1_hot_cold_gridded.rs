@@ -71,6 +71,8 @@ fn run(ctx: &Context) -> Result<()> {
         metrics_every: config.solver.metrics_every,
         sample_res: config.solver.sample_res,
         render: Some(render),
+        vdb: false,
+        paraview: false,
     };
     let summary = run::run(&mut sim, &opts, &config, config.solver.seed)?;
     let strip = |paths: &mut dyn Iterator<Item = &std::path::PathBuf>| {

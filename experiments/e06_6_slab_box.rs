@@ -145,6 +145,8 @@ fn run(ctx: &Context) -> Result<()> {
             metrics_every: 1,
             sample_res: None,
             render: None,
+            vdb: false,
+            paraview: false,
         };
         let summary = run::run(&mut sim, &opts, config, config.solver.seed)?;
         let m = Columns::read(&out.join("metrics.csv"))?;

@@ -7,6 +7,10 @@
 //! - `vel_NNNN.npy` — f32 `(nz, ny, nx, 3)` velocity, as the projection left it;
 //! - `preview_NNNN.png` — mid-plane slice of the gases (obstacles grey);
 //! - `render_NNNN.exr`, `render_NNNN.png` — volume renders (with `--render`);
+//! - `frame_NNNN.vdb` — with `--vdb`: OpenVDB, a float grid per gas and the
+//!   vec3s grid `vel`, voxel `(0,0,0)` at the first cell centre;
+//! - `frame_NNNN.vti`, `run.pvd` — with `--paraview`: VTK image data (cell
+//!   data: the gases and `vel`) and the time series ParaView opens;
 //! - `obstacle.npy` — f32 `(nz, ny, nx)` obstacle level set at the cell
 //!   centres, positive inside, world units (runs with obstacles);
 //! - `metrics.csv` — one row per step ([`MetricsRow`]), appended and flushed
@@ -28,6 +32,8 @@ use crate::table::{field_names, Log};
 use smokelab::density::probe::{self, DensityMeasures, DensityProbe};
 use smokelab::density::DensityMode;
 use smokelab::grid::ScalarGrid;
+use smokelab::io::vdb::{write_vdb, VdbOptions, VolumeGeometry};
+use smokelab::io::vtk::PvdCollection;
 use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::metrics;
 use smokelab::simulation::Simulation;
@@ -51,6 +57,11 @@ pub struct RunOptions {
     pub sample_res: Option<usize>,
     /// Frames to volume-render, and how (`None`: no renders).
     pub render: Option<FrameRender>,
+    /// Also write each saved frame as OpenVDB (`frame_NNNN.vdb`).
+    pub vdb: bool,
+    /// Also write each saved frame as VTK image data (`frame_NNNN.vti`,
+    /// listed with its time in `run.pvd`) for ParaView.
+    pub paraview: bool,
 }
 
 /// The frames whose volumes and previews are written.
@@ -73,9 +84,27 @@ impl SaveFrames {
     }
 }
 
+/// Where the run's arrays live in the world, for tools that read them back
+/// (`smokelab render`, ParaView, Houdini).
+#[derive(Clone, Debug, Serialize)]
+pub struct GridRecord {
+    /// Lower corner of the box.
+    pub origin: [f32; 3],
+    /// Edge Δx of a cubic cell.
+    pub cell: f32,
+    /// Cells `[nx, ny, nz]`; `.npy` arrays are `(nz, ny, nx)`.
+    pub dims: [usize; 3],
+    /// Where the samples sit: velocity and densities at the cell centres.
+    pub layout: &'static str,
+    /// The boundary of the box.
+    pub boundary: &'static str,
+}
+
 /// What a run wrote and what it cost.
 #[derive(Clone, Debug, Serialize)]
 pub struct RunSummary {
+    /// The grid the arrays are sampled on.
+    pub grid: GridRecord,
     /// Wall time of the whole run, seconds.
     pub wall_seconds: f64,
     /// Frames whose volumes were written.
@@ -262,6 +291,13 @@ pub fn run_with<C: Serialize>(
         .map(|g| probe::integral(&*g.source_field, &domain, SOURCE_REFINE))
         .collect();
     let mut summary = RunSummary {
+        grid: GridRecord {
+            origin: domain.origin.to_array(),
+            cell: domain.cell,
+            dims: domain.dims,
+            layout: "collocated: velocity and densities at cell centres",
+            boundary: "periodic",
+        },
         wall_seconds: 0.0,
         saved_frames: vec![],
         previews: vec![],
@@ -289,6 +325,9 @@ pub fn run_with<C: Serialize>(
     if let Some(b) = &sim.boundary {
         io::write_npy3(&opts.out.join("obstacle.npy"), b.level().data())?;
     }
+    let mut pvd = opts
+        .paraview
+        .then(|| PvdCollection::new(opts.out.join("run.pvd")));
     let mut probe = DensityProbe::new(domain);
     let every = opts.metrics_every.max(1);
     for frame in 1..=opts.frames {
@@ -319,6 +358,7 @@ pub fn run_with<C: Serialize>(
         if opts.save.contains(frame, opts.frames) {
             timed(&mut times.output, || {
                 write_frame(sim, &opts.out, frame, opts.sample_res)?;
+                write_exchange(sim, &opts.out, frame, opts.vdb, pvd.as_mut())?;
                 at_saved(sim, frame)
             })?;
             summary.saved_frames.push(frame);
@@ -437,6 +477,45 @@ pub fn write_frame(
         sim.velocity.data(),
     )?;
     io::write_png(&preview_path(out, frame), &preview_image(sim))
+}
+
+/// The formats other tools open, for one saved frame: OpenVDB (Houdini,
+/// Blender) with one float grid per gas and the velocity as `vel`, and VTK
+/// image data (ParaView) listed in `run.pvd`. Both place cell `(i, j, k)` at
+/// its centre in world units.
+fn write_exchange(
+    sim: &Simulation,
+    out: &Path,
+    frame: usize,
+    vdb: bool,
+    pvd: Option<&mut PvdCollection>,
+) -> Result<()> {
+    if !vdb && pvd.is_none() {
+        return Ok(());
+    }
+    let geometry = VolumeGeometry::from(sim.domain());
+    let scalars: Vec<(&str, _)> = sim
+        .gases
+        .iter()
+        .map(|g| (g.name.as_str(), g.density().data().view()))
+        .collect();
+    let vectors = [("vel", sim.velocity.data().view())];
+    if vdb {
+        write_vdb(
+            &out.join(format!("frame_{frame:04}.vdb")),
+            &geometry,
+            &scalars,
+            &vectors,
+            VdbOptions::default(),
+        )?;
+    }
+    if let Some(pvd) = pvd {
+        let file = format!("frame_{frame:04}.vti");
+        // The f32 time as its shortest decimal (0.1, not 0.10000000149…).
+        let time: f64 = sim.time().to_string().parse()?;
+        pvd.write_frame(time, &file, &geometry, &scalars, &vectors)?;
+    }
+    Ok(())
 }
 
 /// Mid-plane slice of every gas in its display colour, obstacles in grey.

@@ -220,17 +220,67 @@ fn experiment_all_smoke_runs_every_experiment_and_tabulates() {
         .filter_map(|l| l.split_whitespace().next())
         .collect();
     assert!(ids.len() >= 10, "listing: {list}");
-    let rows: Vec<&str> = table.lines().skip(1).collect();
+    let mut reader = csv::Reader::from_reader(table.as_bytes());
+    let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
     assert_eq!(rows.len(), ids.len(), "{table}");
+    assert_eq!(
+        reader.headers().unwrap(),
+        vec!["id", "reproduces", "seconds", "output", "status"]
+    );
     for (row, id) in rows.iter().zip(&ids) {
-        let cells: Vec<&str> = row.split(',').collect();
-        assert_eq!(cells[0], *id, "{row}");
-        assert!(row.ends_with(",\"ok\""), "{row}");
-        let folder = dir.path().join(cells[cells.len() - 2]);
+        assert_eq!(&row[0], *id, "{row:?}");
+        assert_eq!(&row[4], "ok", "{row:?}");
+        let folder = dir.path().join(&row[3]);
         assert!(
             std::fs::read_dir(&folder).is_ok_and(|mut d| d.next().is_some()),
             "{id} wrote nothing in {}",
             folder.display()
         );
     }
+}
+
+/// `--vdb` and `--paraview` write every saved frame for Houdini/Blender and
+/// ParaView, and the manifest records where the grid sits in the world.
+#[test]
+fn a_run_writes_vdb_and_paraview_frames_and_its_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = smokelab(
+        &[
+            "run",
+            "hot-cold",
+            "--res",
+            "10",
+            "--frames",
+            "4",
+            "--save-every",
+            "2",
+            "--vdb",
+            "--paraview",
+            "--quiet",
+            "--out",
+            "out",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = dir.path().join("out");
+    for f in [
+        "frame_0002.vdb",
+        "frame_0004.vdb",
+        "frame_0002.vti",
+        "frame_0004.vti",
+    ] {
+        assert!(out.join(f).is_file(), "no {f}");
+    }
+    let pvd = std::fs::read_to_string(out.join("run.pvd")).unwrap();
+    assert!(
+        pvd.contains("timestep=\"0.1\"") && pvd.contains("frame_0004.vti"),
+        "{pvd}"
+    );
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let grid = &manifest["extra"]["grid"];
+    assert_eq!(grid["dims"], serde_json::json!([10, 10, 10]));
+    assert_eq!(grid["cell"], serde_json::json!(1.0));
+    assert_eq!(grid["origin"], serde_json::json!([0.0, 0.0, 0.0]));
 }
