@@ -6,6 +6,7 @@
 
 pub mod manifest;
 pub mod preview;
+pub mod vdb;
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
