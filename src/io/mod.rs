@@ -7,6 +7,7 @@
 pub mod manifest;
 pub mod preview;
 pub mod vdb;
+pub mod vtk;
 
 use std::fs::File;
 use std::io::{BufWriter, Write};

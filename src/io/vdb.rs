@@ -267,7 +267,7 @@ fn creator() -> String {
     format!("smokelab {}", env!("CARGO_PKG_VERSION"))
 }
 
-fn check_inputs(
+pub(crate) fn check_inputs(
     geometry: &VolumeGeometry,
     scalars: &[(&str, ArrayView3<f32>)],
     vectors: &[(&str, ArrayView4<f32>)],
@@ -443,7 +443,8 @@ impl<T: Voxel> Grid<T> {
                         for dz in 0..LEAF_DIM.min(nz - o[2]) {
                             let v = get(o[0] + dx, o[1] + dy, o[2] + dz);
                             // NaN is kept, so a broken field shows.
-                            keep |= !(v.magnitude() <= t);
+                            let m = v.magnitude();
+                            keep |= m > t || m.is_nan();
                             let off = (dx << 6) | (dy << 3) | dz;
                             values[off] = v;
                             mask[off >> 6] |= 1 << (off & 63);
