@@ -290,6 +290,76 @@ fn bad_input_is_refused_and_writes_nothing() {
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
 
+/// Scattered points in a long thin volume: several root children (x past
+/// 4096) and several lower internal nodes (z past 128), so node order and
+/// child offsets matter.
+fn scattered() -> (VolumeGeometry, Array3<f32>, Vec<[usize; 3]>) {
+    let g = VolumeGeometry::new(Vec3::new(10.0, -3.0, 0.5), 0.5, [4100, 3, 260]);
+    let points = vec![
+        [0, 0, 0],
+        [4099, 2, 259],
+        [4096, 1, 0],
+        [4095, 0, 128],
+        [130, 2, 127],
+        [7, 1, 200],
+        [2048, 0, 131],
+        [9, 2, 9],
+    ];
+    let (nz, ny, nx) = g.shape();
+    let mut a = Array3::zeros((nz, ny, nx));
+    for (n, &[i, j, k]) in points.iter().enumerate() {
+        a[[k, j, i]] = n as f32 + 0.5;
+    }
+    (g, a, points)
+}
+
+#[test]
+fn vdb_rs_reads_many_nodes() {
+    let (g, a, points) = scattered();
+    let mut bytes = Vec::new();
+    write_vdb_to(
+        &mut bytes,
+        &g,
+        &[("density", a.view())],
+        &[],
+        VdbOptions::default(),
+    )
+    .unwrap();
+    let mut reader = VdbReader::new(std::io::Cursor::new(bytes)).unwrap();
+    let grid = reader.read_grid::<f32>("density").unwrap();
+    assert_eq!(grid.tree.root_nodes.len(), 2);
+    let mut nonzero = Vec::new();
+    let mut active = 0;
+    for (p, v, level) in grid.iter() {
+        assert!(level == VdbLevel::Voxel);
+        active += 1;
+        let [i, j, k] = [p.x as usize, p.y as usize, p.z as usize];
+        assert!(i < 4100 && j < 3 && k < 260, "({i}, {j}, {k}) outside");
+        assert_eq!(v, a[[k, j, i]], "({i}, {j}, {k})");
+        if v != 0.0 {
+            nonzero.push([i, j, k]);
+        }
+    }
+    nonzero.sort();
+    let mut expected = points.clone();
+    expected.sort();
+    assert_eq!(nonzero, expected);
+    assert_eq!(active, leaf_voxels(&g, &points));
+}
+
+/// Voxels in the leaves holding `points` (each point in its own leaf here),
+/// leaves clipped at the volume's far faces.
+fn leaf_voxels(g: &VolumeGeometry, points: &[[usize; 3]]) -> usize {
+    points
+        .iter()
+        .map(|p| {
+            (0..3)
+                .map(|a| (g.dims[a] - p[a] / 8 * 8).min(8))
+                .product::<usize>()
+        })
+        .sum()
+}
+
 fn python() -> String {
     std::env::var("SMOKELAB_PYTHON").unwrap_or_else(|_| {
         if Path::new("/usr/bin/python3").exists() {
@@ -334,7 +404,50 @@ fn openvdb_python_reads_the_file() {
         assert!(out.status.success(), "python check failed");
         assert!(stdout.contains("OPENVDB OK"));
     }
+
+    // Several root children and lower nodes: OpenVDB keeps them in sorted
+    // maps, so a wrong write order would misplace leaves.
+    let dir = tempfile::tempdir().unwrap();
+    let (g, a, points) = scattered();
+    let path = dir.path().join("scattered.vdb");
+    write_vdb(
+        &path,
+        &g,
+        &[("density", a.view())],
+        &[],
+        VdbOptions::default(),
+    )
+    .unwrap();
+    let expected: Vec<String> = points
+        .iter()
+        .enumerate()
+        .map(|(n, [i, j, k])| format!("(({i}, {j}, {k}), {})", n as f32 + 0.5))
+        .collect();
+    let script = format!(
+        "{PY_IMPORT}\ng = vdb.read({:?}, 'density')\n\
+         pts = sorted(((c, v) for c, v in ((it.min, it.value) for it in g.iterOnValues()) if v != 0))\n\
+         print('active', g.activeVoxelCount(), 'leaves', g.leafCount(), 'nonzero', pts)\n\
+         assert sorted(str(p).replace(' ', '') for p in pts) == sorted({:?}), pts\n\
+         assert g.activeVoxelCount() == {}\n\
+         print('OPENVDB SCATTERED OK')",
+        path.to_str().unwrap(),
+        expected.iter().map(|e| e.replace(' ', "")).collect::<Vec<_>>(),
+        leaf_voxels(&g, &points)
+    );
+    let out = std::process::Command::new(python())
+        .args(["-c", &script])
+        .output()
+        .expect("cannot run python");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!(
+        "scattered:\n{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("OPENVDB SCATTERED OK"));
 }
+
+const PY_IMPORT: &str =
+    "try:\n    import pyopenvdb as vdb\nexcept ImportError:\n    import openvdb as vdb";
 
 const PY_CHECK: &str = r#"
 import os, sys
