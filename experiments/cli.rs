@@ -75,6 +75,10 @@ pub struct RunArgs {
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Run into a folder that holds an earlier run, replacing its outputs
+    /// (files named as a run names them); without it such a folder is refused.
+    #[arg(long)]
+    pub overwrite: bool,
     /// Also write each saved frame as OpenVDB, `frame_NNNN.vdb` (Houdini, Blender).
     #[arg(long)]
     pub vdb: bool,
@@ -357,8 +361,22 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
     init_threads(s.threads)?;
     let out = args.out.clone().unwrap_or_else(|| default_run_dir(C::NAME));
     io::check_output_dir(&out)?;
+    let earlier = earlier_run_outputs(&out)?;
+    if !earlier.is_empty() && !args.overwrite {
+        return Err(InputError::new(format!(
+            "output folder {} holds {} files of an earlier run (e.g. {}); give another --out, or --overwrite to replace them",
+            out.display(),
+            earlier.len(),
+            earlier[0].display()
+        ))
+        .into());
+    }
     let render = frame_render(args, s)?;
     let mut sim = config.build()?;
+    for f in &earlier {
+        std::fs::remove_file(f)
+            .map_err(|e| anyhow::anyhow!("cannot remove {} to overwrite it: {e}", f.display()))?;
+    }
     io::create_output_dir(&out)?;
     let opts = RunOptions {
         out: out.clone(),
@@ -382,6 +400,34 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         out.display()
     );
     Ok(())
+}
+
+/// The files in `dir` that a run writes (volumes, previews, renders, VDB and
+/// VTK frames, metrics, manifest), sorted; none if `dir` does not exist.
+/// A rerun must not leave an earlier run's frames beside its own.
+fn earlier_run_outputs(dir: &std::path::Path) -> Result<Vec<PathBuf>, InputError> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(vec![]);
+    };
+    let is_output = |name: &str| {
+        let frame = |ext: &str| {
+            name.strip_suffix(ext)
+                .and_then(|stem| stem.rsplit_once('_'))
+                .is_some_and(|(_, n)| n.len() == 4 && n.bytes().all(|b| b.is_ascii_digit()))
+        };
+        [".npy", ".png", ".exr", ".vdb", ".vti"]
+            .into_iter()
+            .any(frame)
+            || ["metrics.csv", "manifest.json", "run.pvd", "obstacle.npy"].contains(&name)
+    };
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .filter(|e| e.file_name().to_str().is_some_and(is_output))
+        .map(|e| e.path())
+        .collect();
+    files.sort();
+    Ok(files)
 }
 
 fn default_run_dir(name: &str) -> PathBuf {

@@ -284,3 +284,57 @@ fn a_run_writes_vdb_and_paraview_frames_and_its_grid() {
     assert_eq!(grid["cell"], serde_json::json!(1.0));
     assert_eq!(grid["origin"], serde_json::json!([0.0, 0.0, 0.0]));
 }
+
+/// A rerun into a folder that holds an earlier run is refused (a 5-frame
+/// rerun into a 164-frame folder used to leave 657 files mixing both); with
+/// `--overwrite` the earlier outputs are replaced and none of its frames stay.
+#[test]
+fn a_rerun_into_a_used_folder_is_refused_unless_overwrite() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |frames: &str, extra: &[&str]| {
+        let mut args = vec![
+            "run",
+            "hot-cold",
+            "--res",
+            "10",
+            "--frames",
+            frames,
+            "--save-every",
+            "2",
+            "--quiet",
+            "--out",
+            "out",
+        ];
+        args.extend_from_slice(extra);
+        smokelab(&args, dir.path())
+    };
+    assert!(run("6", &[]).status.success());
+    let out = dir.path().join("out");
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    let o = run("2", &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--overwrite"), "{err}");
+    assert!(
+        out.join("hot_0006.npy").is_file(),
+        "the refused rerun removed files"
+    );
+    let o = run("2", &["--overwrite"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("hot_0002.npy").is_file());
+    for stale in [
+        "hot_0004.npy",
+        "hot_0006.npy",
+        "preview_0006.png",
+        "vel_0006.npy",
+    ] {
+        assert!(
+            !out.join(stale).exists(),
+            "{stale} of the earlier run is still there"
+        );
+    }
+    assert!(
+        out.join("notes.txt").is_file(),
+        "a file the run does not write was removed"
+    );
+}
