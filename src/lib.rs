@@ -33,6 +33,7 @@ pub mod fit;
 pub mod timing;
 pub mod io;
 pub mod projection;
+pub mod pressure;
 pub mod advection;
 pub mod metrics;
 pub mod boundary;
