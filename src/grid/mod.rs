@@ -5,6 +5,7 @@
 //! any field can be sampled onto a grid in parallel (`cachewrite`, see
 //! [`ScalarGrid::from_field`] and [`VectorGrid::from_field`]).
 
+pub mod face;
 mod interpolate;
 mod scalar;
 mod vector;

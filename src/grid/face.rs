@@ -1,0 +1,627 @@
+//! Staggered (MAC) velocity: one component per face lattice.
+//!
+//! `u` lives on the x-faces, `v` on the y-faces, `w` on the z-faces of the
+//! cells of a [`Domain`]; scalars (pressure, divergence) live at the cell
+//! centres. Component `a` at lattice index `(i, j, k)` sits at
+//!
+//! ```text
+//! origin + ((i, j, k) + ½ − ½ e_a) Δx          (the low-a face of cell (i, j, k))
+//! ```
+//!
+//! so in the cell-centre grid coordinates of [`Domain::grid_coords`] its
+//! lattice is shifted by `−½ e_a`.
+//!
+//! Two kinds of box ([`BoxKind`]):
+//! - **periodic**: every component has the cell shape `(nz, ny, nx)`; face
+//!   `i = 0` is both the low face of cell 0 and the high face of cell `n − 1`;
+//! - **closed** (walls with no normal flow): the normal component has one more
+//!   face along its own axis — `u` is `(nz, ny, nx + 1)`, `v` is
+//!   `(nz, ny + 1, nx)`, `w` is `(nz + 1, ny, nx)` — and the wall faces
+//!   (`i = 0` and `i = nx` for `u`, etc.) are held at `0.0` by every operation
+//!   here that writes faces.
+//!
+//! The compact operators, with `Δx` the cell size:
+//!
+//! ```text
+//! (D u)[c]   = Σ_a (u_a[c + e_a] − u_a[c]) / Δx      face → cell
+//! (G p)_a[f] = (p[f] − p[f − e_a]) / Δx              cell → face
+//! L = D G                                            the 7-point Laplacian
+//! ```
+//!
+//! (closed box: `G p` is not defined on wall faces, which stay zero, so `L`
+//! carries homogeneous Neumann conditions). Sweeps run in parallel over
+//! z-slabs and allocate nothing per cell.
+
+use std::fmt;
+
+use glam::Vec3;
+use ndarray::Array3;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::{ScalarGrid, Stencil, VectorGrid, Wrap};
+use crate::domain::Domain;
+use crate::error::InputError;
+use crate::field::VectorField;
+
+/// Boundary conditions of the box the velocity lives in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BoxKind {
+    /// The box tiles space; the pressure solve uses FFTs.
+    #[default]
+    Periodic,
+    /// Six impermeable walls (zero normal velocity); the pressure solve uses
+    /// cosine transforms (homogeneous Neumann pressure).
+    Closed,
+}
+
+impl BoxKind {
+    /// Every kind, in a fixed order (for tests and sweeps).
+    pub const ALL: [BoxKind; 2] = [BoxKind::Periodic, BoxKind::Closed];
+
+    /// Lower-case name, as serialised.
+    pub fn name(self) -> &'static str {
+        match self {
+            BoxKind::Periodic => "periodic",
+            BoxKind::Closed => "closed",
+        }
+    }
+
+    /// How point queries treat positions outside the lattice: periodic wrap,
+    /// or clamping to the lattice of each component (closed box).
+    pub fn wrap(self) -> Wrap {
+        match self {
+            BoxKind::Periodic => Wrap::Periodic,
+            BoxKind::Closed => Wrap::Clamped,
+        }
+    }
+
+    /// Lattice size `[mx, my, mz]` of velocity component `axis` on `domain`:
+    /// the cell counts, plus one along `axis` in a closed box.
+    ///
+    /// # Panics
+    /// If `axis > 2`.
+    pub fn face_dims(self, domain: &Domain, axis: usize) -> [usize; 3] {
+        assert!(axis < 3, "axis {axis} is not 0, 1 or 2");
+        let mut d = domain.dims;
+        if self == BoxKind::Closed {
+            d[axis] += 1;
+        }
+        d
+    }
+}
+
+impl fmt::Display for BoxKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// ndarray shape `(mz, my, mx)` of a lattice `[mx, my, mz]`.
+fn shape_of(d: [usize; 3]) -> (usize, usize, usize) {
+    (d[2], d[1], d[0])
+}
+
+/// MAC velocity on a [`Domain`]: `u`, `v`, `w` on the x-, y- and z-faces.
+///
+/// See the [module documentation](self) for positions, shapes and operators.
+/// As a [`VectorField`] it interpolates each component trilinearly on its own
+/// lattice ([`FaceGrid::sample`]).
+#[derive(Clone, Debug)]
+pub struct FaceGrid {
+    domain: Domain,
+    kind: BoxKind,
+    /// Lattice size `[mx, my, mz]` of each component.
+    dims: [[usize; 3]; 3],
+    comps: [Array3<f32>; 3],
+}
+
+impl FaceGrid {
+    /// Zero velocity.
+    pub fn zeros(domain: Domain, kind: BoxKind) -> Self {
+        let dims = std::array::from_fn(|a| kind.face_dims(&domain, a));
+        Self {
+            domain,
+            kind,
+            dims,
+            comps: dims.map(|d| Array3::zeros(shape_of(d))),
+        }
+    }
+
+    /// Wrap three component arrays `[u, v, w]`.
+    ///
+    /// Fails if a shape is not `(mz, my, mx)` of [`BoxKind::face_dims`], or,
+    /// in a closed box, if a wall face is not exactly zero.
+    pub fn from_components(
+        domain: Domain,
+        kind: BoxKind,
+        comps: [Array3<f32>; 3],
+    ) -> Result<Self, InputError> {
+        let mut grid = Self::zeros(domain, kind);
+        for (a, c) in comps.into_iter().enumerate() {
+            let want = shape_of(grid.dims[a]);
+            if c.dim() != want {
+                crate::input_bail!(
+                    "velocity component {a} has shape {:?}; a {kind} box of {:?} cells needs {want:?}",
+                    c.dim(),
+                    domain.dims
+                );
+            }
+            grid.comps[a] = c.as_standard_layout().into_owned();
+        }
+        if kind == BoxKind::Closed {
+            for a in 0..3 {
+                let n = domain.dims[a];
+                let walls = grid.comps[a]
+                    .indexed_iter()
+                    .filter(|&((k, j, i), _)| {
+                        let f = [i, j, k][a];
+                        f == 0 || f == n
+                    })
+                    .all(|(_, &v)| v == 0.0);
+                if !walls {
+                    crate::input_bail!(
+                        "velocity component {a} is not zero on the walls of a closed box"
+                    );
+                }
+            }
+        }
+        Ok(grid)
+    }
+
+    /// Sample a vector field at the face centres: component `a` of `field`
+    /// at the centres of the a-faces (parallel batches of one z-slab). In a
+    /// closed box the wall faces are then set to zero.
+    pub fn from_field(domain: Domain, kind: BoxKind, field: &dyn VectorField) -> Self {
+        let mut grid = Self::zeros(domain, kind);
+        grid.write_field(field);
+        grid
+    }
+
+    /// Overwrite the faces with `field` as in [`FaceGrid::from_field`].
+    pub fn write_field(&mut self, field: &dyn VectorField) {
+        for a in 0..3 {
+            let d = self.dims[a];
+            let domain = self.domain;
+            self.slice_mut(a)
+                .par_chunks_mut(d[0] * d[1])
+                .enumerate()
+                .for_each_init(
+                    || (Vec::new(), Vec::new()),
+                    |(points, values), (k, out)| {
+                        points.clear();
+                        for j in 0..d[1] {
+                            for i in 0..d[0] {
+                                points.push(face_position(&domain, a, i, j, k));
+                            }
+                        }
+                        values.resize(points.len(), Vec3::ZERO);
+                        field.eval_batch(points, values);
+                        for (o, v) in out.iter_mut().zip(values.iter()) {
+                            *o = v[a];
+                        }
+                    },
+                );
+        }
+        self.zero_walls();
+    }
+
+    /// The domain the faces belong to.
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// Periodic or closed.
+    pub fn kind(&self) -> BoxKind {
+        self.kind
+    }
+
+    /// Lattice size `[mx, my, mz]` of component `axis`.
+    pub fn face_dims(&self, axis: usize) -> [usize; 3] {
+        self.dims[axis]
+    }
+
+    /// World position of face `(i, j, k)` of component `axis`:
+    /// `origin + ((i, j, k) + ½ − ½ e_axis) Δx`.
+    pub fn face_position(&self, axis: usize, i: usize, j: usize, k: usize) -> Vec3 {
+        face_position(&self.domain, axis, i, j, k)
+    }
+
+    /// Component `axis` (0 = u, 1 = v, 2 = w), shape `(mz, my, mx)`.
+    pub fn component(&self, axis: usize) -> &Array3<f32> {
+        &self.comps[axis]
+    }
+
+    /// Component `axis`, mutable. In a closed box the caller must keep the
+    /// wall faces at zero (or call [`FaceGrid::zero_walls`]).
+    pub fn component_mut(&mut self, axis: usize) -> &mut Array3<f32> {
+        &mut self.comps[axis]
+    }
+
+    /// x-velocity on the x-faces.
+    pub fn u(&self) -> &Array3<f32> {
+        &self.comps[0]
+    }
+
+    /// y-velocity on the y-faces.
+    pub fn v(&self) -> &Array3<f32> {
+        &self.comps[1]
+    }
+
+    /// z-velocity on the z-faces.
+    pub fn w(&self) -> &Array3<f32> {
+        &self.comps[2]
+    }
+
+    /// Take the components `[u, v, w]`.
+    pub fn into_components(self) -> [Array3<f32>; 3] {
+        self.comps
+    }
+
+    /// Component `axis` as a flat `[z][y][x]` slice.
+    pub fn slice(&self, axis: usize) -> &[f32] {
+        self.comps[axis]
+            .as_slice()
+            .expect("face arrays are in standard layout")
+    }
+
+    /// Component `axis` as a flat mutable slice (see [`FaceGrid::component_mut`]).
+    pub fn slice_mut(&mut self, axis: usize) -> &mut [f32] {
+        self.comps[axis]
+            .as_slice_mut()
+            .expect("face arrays are in standard layout")
+    }
+
+    /// Closed box: set the wall faces to zero (no flow through a wall).
+    /// Periodic box: nothing to do.
+    pub fn zero_walls(&mut self) {
+        if self.kind != BoxKind::Closed {
+            return;
+        }
+        let [nx, ny, nz] = self.domain.dims;
+        // u: first and last entry of every x-row.
+        for row in self.slice_mut(0).chunks_exact_mut(nx + 1) {
+            row[0] = 0.0;
+            row[nx] = 0.0;
+        }
+        // v: first and last row of every z-slab.
+        for slab in self.slice_mut(1).chunks_exact_mut(nx * (ny + 1)) {
+            slab[..nx].fill(0.0);
+            slab[ny * nx..].fill(0.0);
+        }
+        // w: first and last z-slab.
+        let w = self.slice_mut(2);
+        w[..nx * ny].fill(0.0);
+        w[nz * nx * ny..].fill(0.0);
+    }
+
+    /// Trilinear point query at world point `p`, each component interpolated
+    /// on its own face lattice.
+    ///
+    /// Outside the lattice:
+    /// - periodic box: the lattice wraps, so any point (however far outside
+    ///   the box) samples the periodic extension;
+    /// - closed box: each lattice coordinate is clamped to the lattice's own
+    ///   extent ([`Wrap::Clamped`]). The normal component's lattice spans
+    ///   wall to wall, so beyond a wall it reads the wall's value, `0`. A
+    ///   tangential component's lattice spans the outermost face centres,
+    ///   half a cell inside each wall; in that half-cell strip and beyond the
+    ///   wall it is held constant along the wall normal (the value on the
+    ///   outermost face row). Points outside the box therefore see the
+    ///   velocity of the nearest boundary point, with the normal component
+    ///   set to zero.
+    #[inline]
+    pub fn sample(&self, p: Vec3) -> Vec3 {
+        self.sample_grid_coords(self.domain.grid_coords(p))
+    }
+
+    /// [`FaceGrid::sample`] at continuous cell-centre grid coordinates
+    /// (cell centres at integers, see [`Domain::grid_coords`]).
+    #[inline]
+    pub fn sample_grid_coords(&self, g: Vec3) -> Vec3 {
+        let wrap = self.kind.wrap();
+        let mut out = Vec3::ZERO;
+        for a in 0..3 {
+            let mut ga = g;
+            ga[a] += 0.5;
+            out[a] = Stencil::new(ga, self.dims[a], wrap).apply(self.slice(a));
+        }
+        out
+    }
+
+    /// Cell-centred velocity: each component the mean of its two faces of the
+    /// cell, `(u_a[c] + u_a[c + e_a]) / 2`. The grid wraps periodically in a
+    /// periodic box and is clamped in a closed one.
+    pub fn to_cell_centres(&self) -> VectorGrid {
+        let [nx, ny, _] = self.domain.dims;
+        let mut out = VectorGrid::zeros(self.domain).with_wrap(self.kind.wrap());
+        let [du, dv, dw] = self.dims;
+        let (u, v, w) = (self.slice(0), self.slice(1), self.slice(2));
+        out.as_vec3_mut()
+            .par_chunks_mut(nx * ny)
+            .enumerate()
+            .for_each(|(k, slab)| {
+                let k1 = if k + 1 < dw[2] { k + 1 } else { 0 };
+                for j in 0..ny {
+                    let j1 = if j + 1 < dv[1] { j + 1 } else { 0 };
+                    let ur = &u[(k * du[1] + j) * du[0]..][..du[0]];
+                    let (v0, v1) = (
+                        &v[(k * dv[1] + j) * nx..][..nx],
+                        &v[(k * dv[1] + j1) * nx..][..nx],
+                    );
+                    let (w0, w1) = (
+                        &w[(k * dw[1] + j) * nx..][..nx],
+                        &w[(k1 * dw[1] + j) * nx..][..nx],
+                    );
+                    for (i, o) in slab[j * nx..(j + 1) * nx].iter_mut().enumerate() {
+                        let i1 = if i + 1 < du[0] { i + 1 } else { 0 };
+                        *o = 0.5 * Vec3::new(ur[i] + ur[i1], v0[i] + v1[i], w0[i] + w1[i]);
+                    }
+                }
+            });
+        out
+    }
+
+    /// Compact divergence `D u` into `out` (cell centres):
+    /// `Σ_a (u_a[c + e_a] − u_a[c]) / Δx`, the upper face wrapping in a
+    /// periodic box. Accumulated in f64 (the differences of f32 faces are
+    /// then exact) and rounded once.
+    ///
+    /// # Panics
+    /// If `out` is not on this grid's domain.
+    pub fn divergence(&self, out: &mut ScalarGrid) {
+        assert_eq!(out.domain(), &self.domain, "divergence: another domain");
+        self.divergence_into(out.as_slice_mut());
+    }
+
+    /// [`FaceGrid::divergence`] in f64, into a `[z][y][x]` cell array (the
+    /// pressure solver's right-hand side).
+    ///
+    /// # Panics
+    /// If `out` does not have one value per cell.
+    pub fn divergence_f64(&self, out: &mut [f64]) {
+        self.divergence_into(out);
+    }
+
+    fn divergence_into<T: Real>(&self, out: &mut [T]) {
+        assert_eq!(
+            out.len(),
+            self.domain.len(),
+            "divergence: one value per cell"
+        );
+        let [nx, ny, _] = self.domain.dims;
+        let inv = 1.0 / self.domain.cell as f64;
+        let [du, dv, dw] = self.dims;
+        let (u, v, w) = (self.slice(0), self.slice(1), self.slice(2));
+        out.par_chunks_mut(nx * ny)
+            .enumerate()
+            .for_each(|(k, slab)| {
+                let k1 = if k + 1 < dw[2] { k + 1 } else { 0 };
+                for j in 0..ny {
+                    let j1 = if j + 1 < dv[1] { j + 1 } else { 0 };
+                    let ur = &u[(k * du[1] + j) * du[0]..][..du[0]];
+                    let (v0, v1) = (
+                        &v[(k * dv[1] + j) * nx..][..nx],
+                        &v[(k * dv[1] + j1) * nx..][..nx],
+                    );
+                    let (w0, w1) = (
+                        &w[(k * dw[1] + j) * nx..][..nx],
+                        &w[(k1 * dw[1] + j) * nx..][..nx],
+                    );
+                    let o = &mut slab[j * nx..(j + 1) * nx];
+                    for i in 0..nx {
+                        let i1 = if i + 1 < du[0] { i + 1 } else { 0 };
+                        let d = (ur[i1] as f64 - ur[i] as f64)
+                            + (v1[i] as f64 - v0[i] as f64)
+                            + (w1[i] as f64 - w0[i] as f64);
+                        o[i] = T::from_f64(d * inv);
+                    }
+                }
+            });
+    }
+
+    /// `u −= scale · G p` with the compact gradient
+    /// `(G p)_a[f] = (p[f] − p[f − e_a]) / Δx` (periodic: the lower cell
+    /// wraps). Closed box: the wall faces are not touched. Computed in f64,
+    /// rounded once per face.
+    ///
+    /// # Panics
+    /// If `p` is not on this grid's domain.
+    pub fn subtract_gradient(&mut self, p: &ScalarGrid, scale: f32) {
+        assert_eq!(
+            p.domain(),
+            &self.domain,
+            "subtract_gradient: another domain"
+        );
+        self.subtract_gradient_of(p.as_slice(), scale as f64);
+    }
+
+    /// [`FaceGrid::subtract_gradient`] of an f64 `[z][y][x]` cell array.
+    ///
+    /// # Panics
+    /// If `p` does not have one value per cell.
+    pub fn subtract_gradient_f64(&mut self, p: &[f64], scale: f64) {
+        self.subtract_gradient_of(p, scale);
+    }
+
+    fn subtract_gradient_of<T: Real>(&mut self, p: &[T], scale: f64) {
+        assert_eq!(p.len(), self.domain.len(), "gradient: one value per cell");
+        let [nx, ny, nz] = self.domain.dims;
+        let s = scale / self.domain.cell as f64;
+        let closed = self.kind == BoxKind::Closed;
+        let slab = nx * ny;
+        let sub = |o: &mut f32, hi: T, lo: T| {
+            *o = (*o as f64 - s * (hi.to_f64() - lo.to_f64())) as f32;
+        };
+        // u: along each x-row.
+        let mx = self.dims[0][0];
+        self.slice_mut(0)
+            .par_chunks_mut(mx * ny)
+            .zip(p.par_chunks(slab))
+            .for_each(|(us, ps)| {
+                for (ur, pr) in us.chunks_exact_mut(mx).zip(ps.chunks_exact(nx)) {
+                    if !closed {
+                        sub(&mut ur[0], pr[0], pr[nx - 1]);
+                    }
+                    for i in 1..nx {
+                        sub(&mut ur[i], pr[i], pr[i - 1]);
+                    }
+                }
+            });
+        // v: row j against row j − 1 within each z-slab.
+        let my = self.dims[1][1];
+        self.slice_mut(1)
+            .par_chunks_mut(nx * my)
+            .zip(p.par_chunks(slab))
+            .for_each(|(vs, ps)| {
+                for j in 0..ny {
+                    if closed && j == 0 {
+                        continue;
+                    }
+                    let jl = if j == 0 { ny - 1 } else { j - 1 };
+                    let (hi, lo) = (&ps[j * nx..][..nx], &ps[jl * nx..][..nx]);
+                    for ((o, &a), &b) in vs[j * nx..][..nx].iter_mut().zip(hi).zip(lo) {
+                        sub(o, a, b);
+                    }
+                }
+            });
+        // w: slab k against slab k − 1.
+        self.slice_mut(2)
+            .par_chunks_mut(slab)
+            .enumerate()
+            .for_each(|(k, ws)| {
+                if closed && (k == 0 || k == nz) {
+                    return;
+                }
+                let kl = if k == 0 { nz - 1 } else { k - 1 };
+                let (hi, lo) = (&p[k * slab..][..slab], &p[kl * slab..][..slab]);
+                for ((o, &a), &b) in ws.iter_mut().zip(hi).zip(lo) {
+                    sub(o, a, b);
+                }
+            });
+    }
+
+    /// Largest absolute face value over all three components, `max_a max |u_a|`.
+    pub fn max_norm(&self) -> f32 {
+        (0..3)
+            .map(|a| {
+                self.slice(a)
+                    .par_iter()
+                    .map(|v| v.abs())
+                    .reduce(|| 0.0, f32::max)
+            })
+            .fold(0.0, f32::max)
+    }
+
+    /// `Σ_a Σ_faces u_a²`, in f64.
+    fn sum_squares(&self) -> f64 {
+        (0..3)
+            .map(|a| {
+                self.slice(a)
+                    .par_chunks(4096)
+                    .map(|c| c.iter().map(|&v| (v as f64) * (v as f64)).sum::<f64>())
+                    .sum::<f64>()
+            })
+            .sum()
+    }
+
+    /// Root-mean-square speed `sqrt(Σ_a Σ_faces u_a² / cells)`: every face
+    /// carries a control volume of one cell (closed box: the zero wall faces
+    /// add nothing), so this is `sqrt(2 E / V)` with `E` the
+    /// [kinetic energy](FaceGrid::kinetic_energy) and `V` the box volume.
+    pub fn rms(&self) -> f32 {
+        (self.sum_squares() / self.domain.len() as f64).sqrt() as f32
+    }
+
+    /// Kinetic energy (unit density) `½ Σ_a Σ_faces u_a² Δx³`, in f64.
+    pub fn kinetic_energy(&self) -> f64 {
+        0.5 * self.sum_squares() * self.domain.cell_volume() as f64
+    }
+
+    /// Whether every face value is finite.
+    pub fn is_finite(&self) -> bool {
+        (0..3).all(|a| self.slice(a).par_iter().all(|v| v.is_finite()))
+    }
+}
+
+/// f32 or f64 cell data for the operators (arithmetic is done in f64).
+pub(crate) trait Real: Copy + Send + Sync {
+    fn from_f64(v: f64) -> Self;
+    fn to_f64(self) -> f64;
+}
+
+impl Real for f32 {
+    #[inline(always)]
+    fn from_f64(v: f64) -> Self {
+        v as f32
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self as f64
+    }
+}
+
+impl Real for f64 {
+    #[inline(always)]
+    fn from_f64(v: f64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn to_f64(self) -> f64 {
+        self
+    }
+}
+
+/// World position of face `(i, j, k)` of component `axis` on `domain`.
+#[inline]
+fn face_position(domain: &Domain, axis: usize, i: usize, j: usize, k: usize) -> Vec3 {
+    let mut g = Vec3::new(i as f32, j as f32, k as f32) + 0.5;
+    g[axis] -= 0.5;
+    domain.origin + g * domain.cell
+}
+
+impl VectorField for FaceGrid {
+    fn eval(&self, p: Vec3) -> Vec3 {
+        self.sample(p)
+    }
+
+    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
+        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
+        let wrap = self.kind.wrap();
+        let data = [self.slice(0), self.slice(1), self.slice(2)];
+        // One component at a time: each pass streams one lattice.
+        for (a, data) in data.into_iter().enumerate() {
+            let dims = self.dims[a];
+            for (o, &p) in out.iter_mut().zip(points) {
+                let mut g = self.domain.grid_coords(p);
+                g[a] += 0.5;
+                o[a] = Stencil::new(g, dims, wrap).apply(data);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shapes_and_walls() {
+        let d = Domain::new(Vec3::ZERO, 0.5, [5, 4, 6]).unwrap();
+        let g = FaceGrid::zeros(d, BoxKind::Closed);
+        assert_eq!(g.u().dim(), (6, 4, 6));
+        assert_eq!(g.v().dim(), (6, 5, 5));
+        assert_eq!(g.w().dim(), (7, 4, 5));
+        let p = FaceGrid::zeros(d, BoxKind::Periodic);
+        assert!((0..3).all(|a| p.component(a).dim() == (6, 4, 5)));
+        assert_eq!(g.face_position(0, 0, 0, 0), Vec3::new(0.0, 0.25, 0.25));
+        assert_eq!(g.face_position(2, 1, 2, 3), Vec3::new(0.75, 1.25, 1.5));
+    }
+
+    #[test]
+    fn box_kind_serialises_lower_case() {
+        let s = serde_json::to_string(&BoxKind::ALL).unwrap();
+        assert_eq!(s, r#"["periodic","closed"]"#);
+    }
+}
