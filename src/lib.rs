@@ -57,6 +57,7 @@ pub mod metrics;
 pub mod noise;
 pub mod paper;
 pub mod plot;
+pub mod pressure;
 pub mod projection;
 pub mod render;
 pub mod run;

@@ -1,0 +1,720 @@
+//! Exact fast-Poisson pressure projection and exact viscosity on the MAC grid.
+//!
+//! # Projection
+//!
+//! With the compact operators of [`FaceGrid`] (`D` face → cell, `G` cell →
+//! face, `L = D G` the 7-point Laplacian), [`PressureSolver::project`] solves
+//!
+//! ```text
+//! L p = D u*,        u = u* − G p          ⇒   D u = D u* − L p = 0
+//! ```
+//!
+//! exactly (up to f32 round-off), by diagonalising `L` with a fast transform:
+//!
+//! - **periodic box** — `L` is circulant. With the DFT `p̂(m) = Σ_c p[c]
+//!   e^{−2πi Σ_a m_a c_a / N_a}` (real-to-complex along x with realfft,
+//!   complex along y and z with rustfft), its eigenvalues are
+//!
+//!   ```text
+//!   λ(m) = −Σ_a (2 sin(π m_a / N_a) / Δx)²,     m_a = 0 … N_a − 1;
+//!   ```
+//!
+//! - **closed box** (wall faces held at zero, so `L` has homogeneous Neumann
+//!   conditions, mirror ghost `p[−1] = p[0]`) — with the DCT-II
+//!   `p̂(m) = Σ_c p[c] Π_a cos(π m_a (2 c_a + 1) / 2N_a)` forward and the
+//!   DCT-III back (rustdct), the eigenvalues are
+//!
+//!   ```text
+//!   λ(m) = −Σ_a (2 sin(π m_a / 2N_a) / Δx)²,    m_a = 0 … N_a − 1.
+//!   ```
+//!
+//! In both cases the only vanishing eigenvalue is the zero mode `m = 0` (the
+//! mean of `p`), which is *pinned*: `p̂(0) = 0`, so the returned pressure has
+//! zero mean. The zero mode of `D u*` is zero in exact arithmetic (periodic:
+//! the sum telescopes; closed: the wall faces are zero), so nothing is lost.
+//! There is no Nyquist special case: `sin(π m/N)` vanishes only at `m = 0`,
+//! for even and odd `N` alike.
+//!
+//! One forward transform of the divergence and one inverse transform of the
+//! pressure per projection — not a transform pair per velocity component.
+//!
+//! Normalisation: the transforms are unnormalised; the inverse is scaled by
+//! `1 / (N_x N_y N_z)` (FFT) or `Π_a 2 / N_a` (DCT-II → DCT-III) at the end.
+//!
+//! # Viscosity
+//!
+//! [`PressureSolver::diffuse`] integrates the *semi-discrete* heat equation
+//! `∂u_a/∂t = ν L_a u_a` for each component on its own face lattice exactly
+//! over `Δt`: per mode
+//!
+//! ```text
+//! û_a(m) ← û_a(m) · exp(λ_a(m) ν Δt).
+//! ```
+//!
+//! `λ(m)` is the discrete eigenvalue; since `(2 sin(k Δx / 2) / Δx)² = k² (1 −
+//! k²Δx²/12 + O(k⁴Δx⁴))`, this is the continuous heat kernel `e^{−ν|k|²Δt}`
+//! of the design notes with `|k|²` replaced by its second-order accurate
+//! 7-point symbol: spectrally exact in time, second order in space, and
+//! unconditionally stable. Because `D` maps each eigenvector of the face
+//! Laplacian to the matching eigenvector of the cell Laplacian, diffusion
+//! commutes with `D`: a divergence-free field stays divergence-free.
+//!
+//! - Periodic box: every component lattice is the cell lattice shifted by
+//!   half a cell, so the eigenvalues are those of the projection.
+//! - Closed box (free-slip walls): along its own axis a component lives on
+//!   faces whose wall values are zero (Dirichlet), transformed with the DST-I
+//!   over the `N_a − 1` interior faces, `m_a = 1 … N_a − 1`; along the other
+//!   two axes it lives at cell-centre positions with a mirror ghost (zero
+//!   normal derivative of the tangential velocity: a free-slip, no-stress
+//!   wall), transformed with DCT-II/III, `m_b = 0 … N_b − 1`. In both cases
+//!   `λ = −(2 sin(π m / 2N)/Δx)²` per axis. This is the exact solution of the
+//!   heat equation with free-slip walls; no-slip walls (tangential velocity
+//!   zero on the wall, DST-II) are not offered — that Laplacian does not
+//!   commute with `D`. There is no zero mode (the normal axis starts at m = 1).
+//!
+//! # Performance
+//!
+//! Plans and every buffer are made once in [`PressureSolver::new`]. Each
+//! transform runs in three parallel passes (rayon): x and y lines of one
+//! z-slab per task; z lines of one x-frequency per task, with the spectral
+//! multiply fused between the forward and inverse z transforms; then the y
+//! and x inverses of a few z-slabs per task.
+
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+use rayon::prelude::*;
+use realfft::num_complex::Complex64;
+use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use rustdct::{DctPlanner, Dst1, TransformType2And3};
+use rustfft::{Fft, FftPlanner};
+
+use crate::domain::Domain;
+use crate::error::InputError;
+use crate::grid::face::{BoxKind, FaceGrid, Real};
+use crate::grid::ScalarGrid;
+
+/// What to multiply each mode by between the forward and inverse transform.
+#[derive(Clone, Copy, Debug)]
+enum Filter {
+    /// `1/λ`, zero mode pinned to 0: solves `L p = f`.
+    InverseLaplacian,
+    /// `exp(λ ν Δt)`: exact heat step.
+    Heat { nu_dt: f64 },
+}
+
+/// Eigenvalue `−(2 sin(π m / period) / Δx)²` of one axis of the 7-point
+/// Laplacian (`period = N` periodic, `2N` Neumann or Dirichlet), in f64 then
+/// rounded.
+fn eigenvalue(m: usize, period: usize, dx: f32) -> f64 {
+    let s = 2.0 * (PI * m as f64 / period as f64).sin() / dx as f64;
+    -s * s
+}
+
+/// Multiply the z-lines of one column block, `col[j·nz + k]` for the x-index
+/// `i`, by the filter gain of mode `(i, j, k)`.
+///
+/// `tables` holds per-axis eigenvalues (inverse Laplacian) or per-axis heat
+/// factors `exp(λ_a ν Δt)` (heat step: the product of the three is
+/// `exp(λ ν Δt)`).
+#[inline]
+fn apply_gain<T: std::ops::MulAssign<f64>>(
+    col: &mut [T],
+    i: usize,
+    nz: usize,
+    filter: Filter,
+    tables: &[Vec<f64>; 3],
+) {
+    let [tx, ty, tz] = tables;
+    for (j, line) in col.chunks_exact_mut(nz).enumerate() {
+        match filter {
+            Filter::InverseLaplacian => {
+                let lxy = tx[i] + ty[j];
+                for (c, &lz) in line.iter_mut().zip(tz) {
+                    let l = lxy + lz;
+                    // Every eigenvalue is < 0 except the zero mode's, exactly 0.
+                    *c *= if l < 0.0 { 1.0 / l } else { 0.0 };
+                }
+            }
+            Filter::Heat { .. } => {
+                let hxy = tx[i] * ty[j];
+                for (c, &hz) in line.iter_mut().zip(tz) {
+                    *c *= hxy * hz;
+                }
+            }
+        }
+    }
+}
+
+/// Per-axis tables for [`apply_gain`].
+fn gain_tables(eig: &[Vec<f64>; 3], filter: Filter) -> [Vec<f64>; 3] {
+    match filter {
+        Filter::InverseLaplacian => eig.clone(),
+        Filter::Heat { nu_dt } => {
+            std::array::from_fn(|a| eig[a].iter().map(|&l| (nu_dt * l).exp()).collect())
+        }
+    }
+}
+
+/// z-slabs per task in the inverse x/y pass: gathering kz for consecutive
+/// slabs reads whole cache lines of the columns.
+const SLAB_BLOCK: usize = 8;
+
+/// Periodic box: real FFT along x, complex FFTs along y and z.
+#[derive(Clone)]
+struct PeriodicPlan {
+    dims: [usize; 3],
+    /// Complex bins along x, `nx/2 + 1`.
+    nxh: usize,
+    r2c: Arc<dyn RealToComplex<f64>>,
+    c2r: Arc<dyn ComplexToReal<f64>>,
+    fft_y: Arc<dyn Fft<f64>>,
+    ifft_y: Arc<dyn Fft<f64>>,
+    fft_z: Arc<dyn Fft<f64>>,
+    ifft_z: Arc<dyn Fft<f64>>,
+    /// Spectra after the x and y passes, layout `[z][kx][ky]`.
+    slabs: Vec<Complex64>,
+    /// Full spectra, layout `[kx][ky][kz]`.
+    columns: Vec<Complex64>,
+    /// `λ_a(m)` per axis and bin.
+    eig: [Vec<f64>; 3],
+}
+
+impl PeriodicPlan {
+    fn new(domain: &Domain) -> Self {
+        let [nx, ny, nz] = domain.dims;
+        let nxh = nx / 2 + 1;
+        let mut real = RealFftPlanner::<f64>::new();
+        let mut complex = FftPlanner::<f64>::new();
+        let bins = [nxh, ny, nz];
+        let eig = std::array::from_fn(|a| {
+            (0..bins[a])
+                .map(|m| eigenvalue(m, domain.dims[a], domain.cell))
+                .collect()
+        });
+        let len = nxh * ny * nz;
+        Self {
+            dims: domain.dims,
+            nxh,
+            r2c: real.plan_fft_forward(nx),
+            c2r: real.plan_fft_inverse(nx),
+            fft_y: complex.plan_fft_forward(ny),
+            ifft_y: complex.plan_fft_inverse(ny),
+            fft_z: complex.plan_fft_forward(nz),
+            ifft_z: complex.plan_fft_inverse(nz),
+            slabs: vec![Complex64::default(); len],
+            columns: vec![Complex64::default(); len],
+            eig,
+        }
+    }
+
+    /// Pass 1: `src` (`[z][y][x]`) → `slabs`, transformed along x and y.
+    fn forward<S: Real>(&mut self, src: &[S]) {
+        let [nx, ny, nz] = self.dims;
+        assert_eq!(src.len(), nx * ny * nz, "forward: lattice size");
+        let nxh = self.nxh;
+        let (r2c, fft_y) = (&self.r2c, &self.fft_y);
+        self.slabs
+            .par_chunks_mut(nxh * ny)
+            .zip(src.par_chunks(nx * ny))
+            .for_each_init(
+                || {
+                    (
+                        vec![0.0f64; nx],
+                        vec![Complex64::default(); nxh],
+                        vec![Complex64::default(); r2c.get_scratch_len()],
+                        vec![Complex64::default(); fft_y.get_inplace_scratch_len()],
+                    )
+                },
+                |(real, line, rs, fs), (slab, s)| {
+                    for (j, row) in s.chunks_exact(nx).enumerate() {
+                        for (r, &v) in real.iter_mut().zip(row) {
+                            *r = v.to_f64();
+                        }
+                        r2c.process_with_scratch(real, line, rs)
+                            .expect("r2c buffer sizes are planned");
+                        for (i, &c) in line.iter().enumerate() {
+                            slab[i * ny + j] = c;
+                        }
+                    }
+                    fft_y.process_with_scratch(slab, fs);
+                },
+            );
+    }
+
+    /// Passes 2 and 3: z transform, gain, inverse z into `columns`; then
+    /// inverse y and x into `dst`, scaled by `1/(nx ny nz)`.
+    fn finish<S: Real>(&mut self, filter: Filter, dst: &mut [S]) {
+        let [nx, ny, nz] = self.dims;
+        assert_eq!(dst.len(), nx * ny * nz, "finish: lattice size");
+        let nxh = self.nxh;
+        let tables = gain_tables(&self.eig, filter);
+        let Self {
+            c2r,
+            fft_y: _,
+            ifft_y,
+            fft_z,
+            ifft_z,
+            slabs,
+            columns,
+            ..
+        } = self;
+        let zs = fft_z
+            .get_inplace_scratch_len()
+            .max(ifft_z.get_inplace_scratch_len());
+        {
+            let slabs = &*slabs;
+            columns.par_chunks_mut(ny * nz).enumerate().for_each_init(
+                || vec![Complex64::default(); zs],
+                |scratch, (i, col)| {
+                    for k in 0..nz {
+                        let src = &slabs[(k * nxh + i) * ny..][..ny];
+                        for (j, &c) in src.iter().enumerate() {
+                            col[j * nz + k] = c;
+                        }
+                    }
+                    fft_z.process_with_scratch(col, scratch);
+                    apply_gain(col, i, nz, filter, &tables);
+                    ifft_z.process_with_scratch(col, scratch);
+                },
+            );
+        }
+        let cols = &*columns;
+        let scale = 1.0 / (nx * ny * nz) as f64;
+        let even_x = nx % 2 == 0;
+        slabs
+            .par_chunks_mut(SLAB_BLOCK * nxh * ny)
+            .zip(dst.par_chunks_mut(SLAB_BLOCK * nx * ny))
+            .enumerate()
+            .for_each_init(
+                || {
+                    (
+                        vec![0.0f64; nx],
+                        vec![Complex64::default(); nxh],
+                        vec![Complex64::default(); c2r.get_scratch_len()],
+                        vec![Complex64::default(); ifft_y.get_inplace_scratch_len()],
+                    )
+                },
+                |(real, line, rs, fs), (block, (slabs, out))| {
+                    let k0 = block * SLAB_BLOCK;
+                    let depth = slabs.len() / (nxh * ny);
+                    for (n, col) in cols.chunks_exact(nz).enumerate() {
+                        for (d, &c) in col[k0..k0 + depth].iter().enumerate() {
+                            slabs[d * nxh * ny + n] = c;
+                        }
+                    }
+                    for (slab, out) in slabs
+                        .chunks_exact_mut(nxh * ny)
+                        .zip(out.chunks_exact_mut(nx * ny))
+                    {
+                        ifft_y.process_with_scratch(slab, fs);
+                        for (j, row) in out.chunks_exact_mut(nx).enumerate() {
+                            for (i, l) in line.iter_mut().enumerate() {
+                                *l = slab[i * ny + j];
+                            }
+                            // A real signal has real DC and (even nx) Nyquist
+                            // bins: drop the round-off imaginary parts.
+                            line[0].im = 0.0;
+                            if even_x {
+                                line[nxh - 1].im = 0.0;
+                            }
+                            c2r.process_with_scratch(line, real, rs)
+                                .expect("c2r buffer sizes are planned");
+                            for (o, &r) in row.iter_mut().zip(real.iter()) {
+                                *o = S::from_f64(r * scale);
+                            }
+                        }
+                    }
+                },
+            );
+    }
+}
+
+/// A real-to-real transform along one axis.
+#[derive(Clone)]
+enum R2r {
+    /// DCT-II forward, DCT-III back: cell-centred samples, mirror ghosts.
+    Cosine(Arc<dyn TransformType2And3<f64>>),
+    /// DST-I both ways: the interior faces of a lattice with zero walls.
+    Sine(Arc<dyn Dst1<f64>>),
+}
+
+impl R2r {
+    fn scratch_len(&self) -> usize {
+        match self {
+            R2r::Cosine(t) => t.get_scratch_len(),
+            R2r::Sine(t) => t.get_scratch_len(),
+        }
+    }
+
+    /// Forward transform of every length-`n` line of `lines`.
+    fn forward(&self, lines: &mut [f64], n: usize, scratch: &mut [f64]) {
+        for l in lines.chunks_exact_mut(n) {
+            match self {
+                R2r::Cosine(t) => t.process_dct2_with_scratch(l, scratch),
+                R2r::Sine(t) => t.process_dst1_with_scratch(l, scratch),
+            }
+        }
+    }
+
+    /// Inverse (unnormalised) transform of every length-`n` line.
+    fn inverse(&self, lines: &mut [f64], n: usize, scratch: &mut [f64]) {
+        for l in lines.chunks_exact_mut(n) {
+            match self {
+                R2r::Cosine(t) => t.process_dct3_with_scratch(l, scratch),
+                R2r::Sine(t) => t.process_dst1_with_scratch(l, scratch),
+            }
+        }
+    }
+
+    /// Factor making `inverse ∘ forward` the identity on length-`n` lines:
+    /// DCT-III·DCT-II = n/2, DST-I·DST-I = (n+1)/2.
+    fn norm(&self, n: usize) -> f64 {
+        match self {
+            R2r::Cosine(_) => 2.0 / n as f64,
+            R2r::Sine(_) => 2.0 / (n + 1) as f64,
+        }
+    }
+}
+
+/// One lattice of the closed box and its transforms.
+#[derive(Clone)]
+struct RealConfig {
+    /// Array size `[mx, my, mz]`.
+    lattice: [usize; 3],
+    /// First transformed index per axis (1 past a wall face, else 0).
+    offset: [usize; 3],
+    /// Transform length per axis.
+    len: [usize; 3],
+    axes: [R2r; 3],
+    /// `λ_a(m)` per axis and transform index.
+    eig: [Vec<f64>; 3],
+    /// Product of the per-axis normalisations.
+    norm: f64,
+}
+
+/// Closed box: DCT-II/III (and DST-I for wall-normal face components).
+#[derive(Clone)]
+struct ClosedPlan {
+    /// Index 0: cell centres (pressure); `1 + a`: face component `a`.
+    configs: [RealConfig; 4],
+    /// Layout `[z][x][y]` over the transform lengths.
+    slabs: Vec<f64>,
+    /// Layout `[x][y][z]` over the transform lengths.
+    columns: Vec<f64>,
+}
+
+impl ClosedPlan {
+    fn new(domain: &Domain) -> Self {
+        let mut planner = DctPlanner::<f64>::new();
+        let configs = std::array::from_fn(|c| {
+            let normal = c.checked_sub(1);
+            let mut lattice = [0; 3];
+            let mut offset = [0; 3];
+            let mut len = [0; 3];
+            let mut eig: [Vec<f64>; 3] = Default::default();
+            let axes = std::array::from_fn(|a| {
+                let n = domain.dims[a];
+                if normal == Some(a) {
+                    (lattice[a], offset[a], len[a]) = (n + 1, 1, n - 1);
+                    eig[a] = (1..n).map(|m| eigenvalue(m, 2 * n, domain.cell)).collect();
+                    R2r::Sine(planner.plan_dst1(n - 1))
+                } else {
+                    (lattice[a], offset[a], len[a]) = (n, 0, n);
+                    eig[a] = (0..n).map(|m| eigenvalue(m, 2 * n, domain.cell)).collect();
+                    R2r::Cosine(planner.plan_dct2(n))
+                }
+            });
+            let norm = (0..3).map(|a| R2r::norm(&axes[a], len[a])).product();
+            RealConfig {
+                lattice,
+                offset,
+                len,
+                axes,
+                eig,
+                norm,
+            }
+        });
+        let cells = domain.len();
+        Self {
+            configs,
+            slabs: vec![0.0f64; cells],
+            columns: vec![0.0f64; cells],
+        }
+    }
+
+    /// Pass 1: the transformed part of `src` (lattice `config`) → `slabs`,
+    /// transformed along x and y.
+    fn forward<S: Real>(&mut self, config: usize, src: &[S]) {
+        let cfg = &self.configs[config];
+        let [lx, ly, lz] = cfg.len;
+        let [mx, my, mz] = cfg.lattice;
+        let [ox, oy, oz] = cfg.offset;
+        assert_eq!(src.len(), mx * my * mz, "forward: lattice size");
+        let [ax, ay, _] = &cfg.axes;
+        let scratch = ax.scratch_len().max(ay.scratch_len());
+        let src = &src[oz * mx * my..(oz + lz) * mx * my];
+        self.slabs[..lx * ly * lz]
+            .par_chunks_mut(lx * ly)
+            .zip(src.par_chunks(mx * my))
+            .for_each_init(
+                || (vec![0.0f64; lx], vec![0.0f64; scratch]),
+                |(line, scratch), (slab, s)| {
+                    for j in 0..ly {
+                        for (l, &v) in line.iter_mut().zip(&s[(j + oy) * mx + ox..][..lx]) {
+                            *l = v.to_f64();
+                        }
+                        ax.forward(line, lx, scratch);
+                        for (i, &v) in line.iter().enumerate() {
+                            slab[i * ly + j] = v;
+                        }
+                    }
+                    ay.forward(slab, ly, scratch);
+                },
+            );
+    }
+
+    /// Passes 2 and 3: z transform, gain, inverse z; inverse y and x into
+    /// `dst` (lattice `config`), normalised; wall faces set to zero.
+    fn finish<S: Real>(&mut self, config: usize, filter: Filter, dst: &mut [S]) {
+        let Self {
+            configs,
+            slabs,
+            columns,
+        } = self;
+        let cfg = &configs[config];
+        let [lx, ly, lz] = cfg.len;
+        let [mx, my, mz] = cfg.lattice;
+        let [ox, oy, oz] = cfg.offset;
+        assert_eq!(dst.len(), mx * my * mz, "finish: lattice size");
+        let [ax, ay, az] = &cfg.axes;
+        let scratch = ax.scratch_len().max(ay.scratch_len()).max(az.scratch_len());
+        let n = lx * ly * lz;
+        let tables = gain_tables(&cfg.eig, filter);
+        {
+            let slabs = &slabs[..n];
+            columns[..n]
+                .par_chunks_mut(ly * lz)
+                .enumerate()
+                .for_each_init(
+                    || vec![0.0f64; scratch],
+                    |scratch, (i, col)| {
+                        for k in 0..lz {
+                            let src = &slabs[(k * lx + i) * ly..][..ly];
+                            for (j, &v) in src.iter().enumerate() {
+                                col[j * lz + k] = v;
+                            }
+                        }
+                        az.forward(col, lz, scratch);
+                        apply_gain(col, i, lz, filter, &tables);
+                        az.inverse(col, lz, scratch);
+                    },
+                );
+        }
+        let cols = &columns[..n];
+        let norm = cfg.norm;
+        let (lo, rest) = dst.split_at_mut(oz * mx * my);
+        let (mid, hi) = rest.split_at_mut(lz * mx * my);
+        lo.fill(S::from_f64(0.0));
+        hi.fill(S::from_f64(0.0));
+        slabs[..n]
+            .par_chunks_mut(SLAB_BLOCK * lx * ly)
+            .zip(mid.par_chunks_mut(SLAB_BLOCK * mx * my))
+            .enumerate()
+            .for_each_init(
+                || (vec![0.0f64; lx], vec![0.0f64; scratch]),
+                |(line, scratch), (block, (slabs, out))| {
+                    let k0 = block * SLAB_BLOCK;
+                    let depth = slabs.len() / (lx * ly);
+                    for (idx, col) in cols.chunks_exact(lz).enumerate() {
+                        for (d, &v) in col[k0..k0 + depth].iter().enumerate() {
+                            slabs[d * lx * ly + idx] = v;
+                        }
+                    }
+                    for (slab, o) in slabs
+                        .chunks_exact_mut(lx * ly)
+                        .zip(out.chunks_exact_mut(mx * my))
+                    {
+                        ay.inverse(slab, ly, scratch);
+                        o[..oy * mx].fill(S::from_f64(0.0));
+                        o[(oy + ly) * mx..].fill(S::from_f64(0.0));
+                        for j in 0..ly {
+                            for (i, l) in line.iter_mut().enumerate() {
+                                *l = slab[i * ly + j];
+                            }
+                            ax.inverse(line, lx, scratch);
+                            let row = &mut o[(j + oy) * mx..][..mx];
+                            row[..ox].fill(S::from_f64(0.0));
+                            row[ox + lx..].fill(S::from_f64(0.0));
+                            for (r, &v) in row[ox..ox + lx].iter_mut().zip(line.iter()) {
+                                *r = S::from_f64(v * norm);
+                            }
+                        }
+                    }
+                },
+            );
+    }
+}
+
+/// The transforms of one box kind.
+#[derive(Clone)]
+enum Engine {
+    Periodic(Box<PeriodicPlan>),
+    Closed(Box<ClosedPlan>),
+}
+
+impl Engine {
+    /// Forward-transform `src` on lattice `config` (0: cells, `1 + a`: face
+    /// component `a`; the periodic lattices all have the cell shape).
+    fn forward<S: Real>(&mut self, config: usize, src: &[S]) {
+        match self {
+            Engine::Periodic(p) => p.forward(src),
+            Engine::Closed(c) => c.forward(config, src),
+        }
+    }
+
+    /// Multiply by the filter's gain and transform back into `dst`.
+    fn finish<S: Real>(&mut self, config: usize, filter: Filter, dst: &mut [S]) {
+        match self {
+            Engine::Periodic(p) => p.finish(filter, dst),
+            Engine::Closed(c) => c.finish(config, filter, dst),
+        }
+    }
+}
+
+/// Exact MAC pressure projection and viscosity for one domain and box kind.
+///
+/// Plans every transform and owns every buffer once ([`PressureSolver::new`]);
+/// [`PressureSolver::project`] and [`PressureSolver::diffuse`] then allocate
+/// only a few per-axis tables and per-task line buffers. See the
+/// [module documentation](self) for the equations.
+#[derive(Clone)]
+pub struct PressureSolver {
+    domain: Domain,
+    kind: BoxKind,
+    /// `D u*` of the last projection, f64 (the transform input).
+    rhs: Vec<f64>,
+    /// `p` of the last projection, f64 (the transform output).
+    p64: Vec<f64>,
+    /// `D u*` of the last projection, rounded to f32.
+    divergence: ScalarGrid,
+    /// `p` of the last projection (zero mean), rounded to f32.
+    pressure: ScalarGrid,
+    engine: Engine,
+}
+
+impl PressureSolver {
+    /// Plan the transforms and allocate the buffers for `domain` and `kind`.
+    pub fn new(domain: Domain, kind: BoxKind) -> Self {
+        let engine = match kind {
+            BoxKind::Periodic => Engine::Periodic(Box::new(PeriodicPlan::new(&domain))),
+            BoxKind::Closed => Engine::Closed(Box::new(ClosedPlan::new(&domain))),
+        };
+        let grid = ScalarGrid::zeros(domain).with_wrap(kind.wrap());
+        Self {
+            domain,
+            kind,
+            rhs: vec![0.0; domain.len()],
+            p64: vec![0.0; domain.len()],
+            divergence: grid.clone(),
+            pressure: grid,
+            engine,
+        }
+    }
+
+    /// The domain planned for.
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// The box kind planned for.
+    pub fn kind(&self) -> BoxKind {
+        self.kind
+    }
+
+    /// The pressure `p` of the last [`PressureSolver::project`] (zeros before
+    /// the first): `L p = D u*` with zero mean. In physical units it is the
+    /// kinematic pressure impulse `p_phys Δt / ρ`.
+    pub fn pressure(&self) -> &ScalarGrid {
+        &self.pressure
+    }
+
+    /// The divergence `D u*` of the velocity handed to the last projection.
+    pub fn divergence(&self) -> &ScalarGrid {
+        &self.divergence
+    }
+
+    /// Make `u` exactly discretely divergence-free: solve `L p = D u*`
+    /// (zero mode pinned), then `u = u* − G p`. Closed box: the wall faces are
+    /// first set to zero (no flow through a wall).
+    ///
+    /// # Panics
+    /// If `u` is not on the planned domain and box kind.
+    pub fn project(&mut self, u: &mut FaceGrid) {
+        assert_eq!(u.domain(), &self.domain, "pressure solver: another domain");
+        assert_eq!(u.kind(), self.kind, "pressure solver: another box kind");
+        u.zero_walls();
+        u.divergence_f64(&mut self.rhs);
+        self.engine.forward(0, &self.rhs);
+        self.engine
+            .finish(0, Filter::InverseLaplacian, &mut self.p64);
+        u.subtract_gradient_f64(&self.p64, 1.0);
+        round_into(&self.rhs, self.divergence.as_slice_mut());
+        round_into(&self.p64, self.pressure.as_slice_mut());
+    }
+
+    /// Solve `L p = f` for cell-centred `f` with the zero mode pinned
+    /// (`p̂(0) = 0`; the mean of `f` is ignored). The fast solver the design
+    /// notes use to precondition the cut-cell conjugate gradients.
+    ///
+    /// # Panics
+    /// If a grid is not on the planned domain.
+    pub fn solve_poisson(&mut self, f: &ScalarGrid, p: &mut ScalarGrid) {
+        assert_eq!(f.domain(), &self.domain, "solve_poisson: another domain");
+        assert_eq!(p.domain(), &self.domain, "solve_poisson: another domain");
+        self.engine.forward(0, f.as_slice());
+        self.engine
+            .finish(0, Filter::InverseLaplacian, p.as_slice_mut());
+    }
+
+    /// Exact viscous step: each component `û_a ← û_a exp(λ_a ν Δt)` on its
+    /// own lattice (module documentation, "Viscosity"). Periodic box: exact
+    /// for the periodic 7-point Laplacian; closed box: free-slip walls, the
+    /// wall faces stay zero. Three transform pairs, one per component.
+    ///
+    /// Fails if `nu` or `dt` is negative or not finite.
+    ///
+    /// # Panics
+    /// If `u` is not on the planned domain and box kind.
+    pub fn diffuse(&mut self, u: &mut FaceGrid, nu: f32, dt: f32) -> Result<(), InputError> {
+        assert_eq!(u.domain(), &self.domain, "pressure solver: another domain");
+        assert_eq!(u.kind(), self.kind, "pressure solver: another box kind");
+        if !(nu.is_finite() && nu >= 0.0) {
+            crate::input_bail!("viscosity is {nu}; it must be a finite number ≥ 0");
+        }
+        if !(dt.is_finite() && dt >= 0.0) {
+            crate::input_bail!("time step is {dt}; it must be a finite number ≥ 0");
+        }
+        let nu_dt = nu as f64 * dt as f64;
+        if nu_dt == 0.0 {
+            return Ok(());
+        }
+        for a in 0..3 {
+            self.engine.forward(1 + a, u.slice(a));
+            self.engine
+                .finish(1 + a, Filter::Heat { nu_dt }, u.slice_mut(a));
+        }
+        Ok(())
+    }
+}
+
+/// `dst = src` rounded to f32, in parallel.
+fn round_into(src: &[f64], dst: &mut [f32]) {
+    dst.par_chunks_mut(4096)
+        .zip(src.par_chunks(4096))
+        .for_each(|(d, s)| {
+            for (d, &s) in d.iter_mut().zip(s) {
+                *d = s as f32;
+            }
+        });
+}
