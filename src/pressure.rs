@@ -113,8 +113,7 @@ enum Filter {
 }
 
 /// Eigenvalue `−(2 sin(π m / period) / Δx)²` of one axis of the 7-point
-/// Laplacian (`period = N` periodic, `2N` Neumann or Dirichlet), in f64 then
-/// rounded.
+/// Laplacian (`period = N` periodic, `2N` Neumann or Dirichlet), in f64.
 fn eigenvalue(m: usize, period: usize, dx: f32) -> f64 {
     let s = 2.0 * (PI * m as f64 / period as f64).sin() / dx as f64;
     -s * s
