@@ -35,7 +35,7 @@ use smokelab::grid::ScalarGrid;
 use smokelab::io::vdb::{write_vdb, VdbOptions, VolumeGeometry};
 use smokelab::io::vtk::PvdCollection;
 use smokelab::io::{self, manifest::Manifest, preview};
-use smokelab::metrics;
+use smokelab::metrics::{self, SpectralShare};
 use smokelab::simulation::Simulation;
 use smokelab::timing::{timed, StageTimes};
 
@@ -132,12 +132,21 @@ pub struct RunSummary {
     pub renders: Vec<FrameRecord>,
 }
 
+/// Fixed random points at which the interpolant's divergence is measured.
+pub const PROBE_POINTS: usize = 4096;
+
 /// Refinement of the quadrature of `∫S dV` for the injected-mass budget.
 const SOURCE_REFINE: usize = 4;
 
 /// One row of `metrics.csv`: its fields, in order, are the columns (nested
 /// parts flattened; [`metric_columns`] names them):
-/// - `step, time, max_u, cfl, div_rms, div_max`;
+/// - `step, time, max_u, cfl, div_rms, div_max` (the discrete divergence the
+///   projection zeroes), `div_interp_rms, div_interp_max` (the divergence of
+///   the velocity's point query at [`PROBE_POINTS`] fixed random points,
+///   relative to the rms of `|∇u|` there —
+///   [`metrics::interpolant_divergence`]), `ke_top_octave` (share of the
+///   kinetic energy with a wavenumber index beyond `N/4` on some axis: the top
+///   octave, grid-scale flow; on the fine-measure cadence, `NaN` between);
 /// - per gas `<g>_mass` (∫ρ at 2× the velocity grid), `<g>_injected` (the
 ///   exact budget of what the representation injected, `steps · Δt · rate`:
 ///   a gridded density adds `S` at the cell centres, rate `Σ S Δx³`;
@@ -172,6 +181,9 @@ struct StepColumns {
     cfl: f32,
     div_rms: f32,
     div_max: f32,
+    div_interp_rms: f32,
+    div_interp_max: f32,
+    ke_top_octave: f64,
 }
 
 /// One gas's measures; the columns are prefixed with the gas's name.
@@ -329,6 +341,8 @@ pub fn run_with<C: Serialize>(
         .paraview
         .then(|| PvdCollection::new(opts.out.join("run.pvd")));
     let mut probe = DensityProbe::new(domain);
+    let points = metrics::probe_points(&domain, PROBE_POINTS, 1);
+    let mut spectrum = SpectralShare::new(domain.dims);
     let every = opts.metrics_every.max(1);
     for frame in 1..=opts.frames {
         if let Err(e) = sim.try_step() {
@@ -347,14 +361,20 @@ pub fn run_with<C: Serialize>(
         }
         let max_u = sim.velocity.max_norm();
         let div = metrics::divergence_stats(&sim.velocity);
+        let div_interp = metrics::interpolant_divergence(&sim.velocity, &domain, &points);
         let mirror = (sim.gases.len() == 2)
             .then(|| metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density()));
-        let measures: Option<Vec<DensityMeasures>> = (frame % every == 0 || frame == opts.frames)
-            .then(|| {
-                timed(&mut times.metrics, || {
-                    sim.gases.iter().map(|g| probe.measure(&g.model)).collect()
-                })
-            });
+        let measuring = frame % every == 0 || frame == opts.frames;
+        let measures: Option<Vec<DensityMeasures>> = measuring.then(|| {
+            timed(&mut times.metrics, || {
+                sim.gases.iter().map(|g| probe.measure(&g.model)).collect()
+            })
+        });
+        let ke_top_octave = if measuring {
+            timed(&mut times.metrics, || top_octave_share(&mut spectrum, sim))
+        } else {
+            f64::NAN
+        };
         if opts.save.contains(frame, opts.frames) {
             timed(&mut times.output, || {
                 write_frame(sim, &opts.out, frame, opts.sample_res)?;
@@ -407,6 +427,9 @@ pub fn run_with<C: Serialize>(
                 cfl: max_u * sim.params.dt / sim.domain().cell,
                 div_rms: div.rms,
                 div_max: div.max,
+                div_interp_rms: div_interp.rms,
+                div_interp_max: div_interp.max,
+                ke_top_octave,
             },
             gases,
             mirror_error: mirror.into_iter().collect(),
@@ -441,6 +464,15 @@ pub fn run_with<C: Serialize>(
         &Manifest::new(config, seed, summary.wall_seconds, extra),
     )?;
     Ok(summary)
+}
+
+/// Share of the velocity's kinetic energy in the top octave of wavenumbers
+/// (index beyond `N/4` on some axis), all three components together.
+fn top_octave_share(spectrum: &mut SpectralShare, sim: &Simulation) -> f64 {
+    let u = sim.velocity.as_vec3();
+    let comps: Vec<Vec<f32>> = (0..3).map(|a| u.iter().map(|v| v[a]).collect()).collect();
+    let arrays: Vec<&[f32]> = comps.iter().map(Vec::as_slice).collect();
+    spectrum.share_above(&arrays, sim.domain().dims.map(|n| n / 4))
 }
 
 fn preview_path(out: &Path, frame: usize) -> PathBuf {

@@ -22,18 +22,14 @@
 //! The transforms (real-to-complex along x, complex along y and z) are
 //! planned once in [`DensityProbe::new`] and every buffer is reused.
 
-use std::sync::Arc;
-
 use rayon::prelude::*;
-use realfft::num_complex::Complex32;
-use realfft::{RealFftPlanner, RealToComplex};
-use rustfft::{Fft, FftPlanner};
 use serde::Serialize;
 
 use super::DensityModel;
 use crate::domain::Domain;
 use crate::field::ScalarField;
 use crate::grid::ScalarGrid;
+use crate::metrics::SpectralShare;
 
 /// Refinement of the measuring grid over the velocity grid, per axis.
 pub const REFINE: usize = 2;
@@ -56,33 +52,17 @@ pub struct DensityMeasures {
 pub struct DensityProbe {
     coarse: Domain,
     fine: ScalarGrid,
-    nxh: usize,
-    r2c: Arc<dyn RealToComplex<f32>>,
-    fft_y: Arc<dyn Fft<f32>>,
-    fft_z: Arc<dyn Fft<f32>>,
-    /// Spectrum after the x and y passes, `[z][y][kx]`.
-    slabs: Vec<Complex32>,
-    /// Full spectrum, `[ky][kx][kz]`.
-    columns: Vec<Complex32>,
+    spectrum: SpectralShare,
 }
 
 impl DensityProbe {
     /// Plan for densities on the velocity grid `coarse`.
     pub fn new(coarse: Domain) -> Self {
         let fine = coarse.refined(REFINE);
-        let [nx, ny, nz] = fine.dims;
-        let nxh = nx / 2 + 1;
-        let len = nxh * ny * nz;
-        let mut complex = FftPlanner::<f32>::new();
         Self {
             coarse,
             fine: ScalarGrid::zeros(fine),
-            nxh,
-            r2c: RealFftPlanner::<f32>::new().plan_fft_forward(nx),
-            fft_y: complex.plan_fft_forward(ny),
-            fft_z: complex.plan_fft_forward(nz),
-            slabs: vec![Complex32::default(); len],
-            columns: vec![Complex32::default(); len],
+            spectrum: SpectralShare::new(fine.dims),
         }
     }
 
@@ -98,9 +78,7 @@ impl DensityProbe {
 
     /// Bytes of the probe's buffers.
     pub fn bytes(&self) -> usize {
-        std::mem::size_of_val(self.fine.as_slice())
-            + std::mem::size_of_val(&self.slabs[..])
-            + std::mem::size_of_val(&self.columns[..])
+        std::mem::size_of_val(self.fine.as_slice()) + self.spectrum.bytes()
     }
 
     /// Sample `model` on the fine grid and measure it.
@@ -120,96 +98,9 @@ impl DensityProbe {
             mass: self.fine.total(),
             max: self.fine.max_abs() as f64,
             mean_gradient: mean_gradient(&self.fine),
-            subgrid_fraction: self.subgrid_fraction(),
-        }
-    }
-
-    /// Share of `Σ_{k≠0} |ρ̂|²` with `|m_a| > N_a/2` on some axis `a`.
-    fn subgrid_fraction(&mut self) -> f64 {
-        let [nx, ny, nz] = self.fine.domain().dims;
-        let nxh = self.nxh;
-        let cut = self.coarse.dims.map(|n| (n / 2) as i64);
-        let (r2c, fft_y, src) = (&self.r2c, &self.fft_y, self.fine.as_slice());
-        self.slabs
-            .par_chunks_mut(ny * nxh)
-            .enumerate()
-            .for_each_init(
-                || {
-                    (
-                        vec![0.0f32; nx],
-                        vec![Complex32::default(); r2c.get_scratch_len()],
-                        vec![Complex32::default(); ny],
-                        vec![Complex32::default(); fft_y.get_inplace_scratch_len()],
-                    )
-                },
-                |(real, rs, line, ys), (k, slab)| {
-                    for j in 0..ny {
-                        real.copy_from_slice(&src[(k * ny + j) * nx..(k * ny + j + 1) * nx]);
-                        r2c.process_with_scratch(real, &mut slab[j * nxh..(j + 1) * nxh], rs)
-                            .expect("r2c buffer sizes are planned");
-                    }
-                    for i in 0..nxh {
-                        for j in 0..ny {
-                            line[j] = slab[j * nxh + i];
-                        }
-                        fft_y.process_with_scratch(line, ys);
-                        for j in 0..ny {
-                            slab[j * nxh + i] = line[j];
-                        }
-                    }
-                },
-            );
-        let (slabs, fft_z) = (&self.slabs, &self.fft_z);
-        let signed = |m: usize, n: usize| {
-            if m <= n / 2 {
-                m as i64
-            } else {
-                m as i64 - n as i64
-            }
-        };
-        let (total, above) = self
-            .columns
-            .par_chunks_mut(nxh * nz)
-            .enumerate()
-            .map_init(
-                || vec![Complex32::default(); fft_z.get_inplace_scratch_len()],
-                |scratch, (j, col)| {
-                    for k in 0..nz {
-                        let row = &slabs[(k * ny + j) * nxh..(k * ny + j + 1) * nxh];
-                        for (i, &v) in row.iter().enumerate() {
-                            col[i * nz + k] = v;
-                        }
-                    }
-                    fft_z.process_with_scratch(col, scratch);
-                    let sy = signed(j, ny).abs();
-                    let (mut total, mut above) = (0.0f64, 0.0f64);
-                    for i in 0..nxh {
-                        // Bins 1 … nx/2−1 stand for ±kx: count them twice.
-                        let w = if i == 0 || (nx % 2 == 0 && i == nx / 2) {
-                            1.0
-                        } else {
-                            2.0
-                        };
-                        for k in 0..nz {
-                            if i == 0 && j == 0 && k == 0 {
-                                continue;
-                            }
-                            let e = w * col[i * nz + k].norm_sqr() as f64;
-                            total += e;
-                            let sz = signed(k, nz).abs();
-                            if i as i64 > cut[0] || sy > cut[1] || sz > cut[2] {
-                                above += e;
-                            }
-                        }
-                    }
-                    (total, above)
-                },
-            )
-            .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
-        if total > 0.0 {
-            above / total
-        } else {
-            0.0
+            subgrid_fraction: self
+                .spectrum
+                .share_above(&[self.fine.as_slice()], self.coarse.dims.map(|n| n / 2)),
         }
     }
 }

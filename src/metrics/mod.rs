@@ -1,6 +1,14 @@
-//! Diagnostics computed on grids: divergence, mirror symmetry of densities and velocity.
+//! Diagnostics computed on grids: divergence, mirror symmetry of densities
+//! and velocity, the divergence tracers feel ([`interpolant`]) and where the
+//! energy sits in wavenumber ([`spectrum`]).
+
+pub mod interpolant;
+pub mod spectrum;
 
 use rayon::prelude::*;
+
+pub use interpolant::{interpolant_divergence, probe_points};
+pub use spectrum::SpectralShare;
 
 use crate::grid::{ScalarGrid, VectorGrid};
 
