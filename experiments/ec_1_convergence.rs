@@ -115,7 +115,7 @@ fn studies(size: Size) -> Vec<Study> {
     studies.push(cases::quick_rotation(&l.plane_quick));
     studies.push(cases::taylor_green_sl(&l.plane));
     studies.push(cases::taylor_green_quick(&l.plane));
-    studies.push(cases::projection_discrete(&l.cube));
+    studies.push(cases::projection_mac(&l.cube));
     for bt in Backtrace::ALL {
         let steps = if bt == Backtrace::Rk3 {
             &l.steps_rk3

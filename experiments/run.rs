@@ -307,7 +307,7 @@ pub fn run_with<C: Serialize>(
             origin: domain.origin.to_array(),
             cell: domain.cell,
             dims: domain.dims,
-            layout: "collocated: velocity and densities at cell centres",
+            layout: "MAC: u, v, w on the x-, y-, z-faces; densities at cell centres",
             boundary: "periodic",
         },
         wall_seconds: 0.0,
@@ -371,7 +371,9 @@ pub fn run_with<C: Serialize>(
             })
         });
         let ke_top_octave = if measuring {
-            timed(&mut times.metrics, || top_octave_share(&mut spectrum, sim))
+            timed(&mut times.metrics, || {
+                metrics::top_octave_share(&mut spectrum, &sim.velocity)
+            })
         } else {
             f64::NAN
         };
@@ -466,15 +468,6 @@ pub fn run_with<C: Serialize>(
     Ok(summary)
 }
 
-/// Share of the velocity's kinetic energy in the top octave of wavenumbers
-/// (index beyond `N/4` on some axis), all three components together.
-fn top_octave_share(spectrum: &mut SpectralShare, sim: &Simulation) -> f64 {
-    let u = sim.velocity.as_vec3();
-    let comps: Vec<Vec<f32>> = (0..3).map(|a| u.iter().map(|v| v[a]).collect()).collect();
-    let arrays: Vec<&[f32]> = comps.iter().map(Vec::as_slice).collect();
-    spectrum.share_above(&arrays, sim.domain().dims.map(|n| n / 4))
-}
-
 fn preview_path(out: &Path, frame: usize) -> PathBuf {
     out.join(format!("preview_{frame:04}.png"))
 }
@@ -504,9 +497,15 @@ pub fn write_frame(
             )?;
         }
     }
+    for (a, name) in ["u", "v", "w"].iter().enumerate() {
+        io::write_npy3(
+            &out.join(format!("{name}_{frame:04}.npy")),
+            sim.velocity.component(a),
+        )?;
+    }
     io::write_npy4(
         &out.join(format!("vel_{frame:04}.npy")),
-        sim.velocity.data(),
+        sim.velocity.to_cell_centres().data(),
     )?;
     io::write_png(&preview_path(out, frame), &preview_image(sim))
 }
@@ -531,7 +530,8 @@ fn write_exchange(
         .iter()
         .map(|g| (g.name.as_str(), g.density().data().view()))
         .collect();
-    let vectors = [("vel", sim.velocity.data().view())];
+    let centred = sim.velocity.to_cell_centres();
+    let vectors = [("vel", centred.data().view())];
     if vdb {
         write_vdb(
             &out.join(format!("frame_{frame:04}.vdb")),

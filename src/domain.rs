@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::InputError;
 
-/// Smallest cell count per axis: the central-difference divergence and the
-/// projection's Nyquist handling need at least four cells.
+/// Smallest cell count per axis: QUICK's stencil (two cells upwind, one
+/// downwind) and the pressure solve's tests need at least four cells.
 pub const MIN_CELLS: usize = 4;
 
 /// Most cells a box may have (2^40, about 13 TB for one vector grid of f32):

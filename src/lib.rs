@@ -32,7 +32,6 @@ pub mod grid;
 pub mod fit;
 pub mod timing;
 pub mod io;
-pub mod projection;
 pub mod pressure;
 pub mod advection;
 pub mod metrics;

@@ -43,21 +43,21 @@
 //!
 //! # Viscosity
 //!
-//! [`PressureSolver::diffuse`] integrates the *semi-discrete* heat equation
-//! `∂u_a/∂t = ν L_a u_a` for each component on its own face lattice exactly
-//! over `Δt`: per mode
+//! [`PressureSolver::diffuse`] applies the heat kernel of the design notes
+//! exactly, per mode and per component on its own face lattice:
 //!
 //! ```text
-//! û_a(m) ← û_a(m) · exp(λ_a(m) ν Δt).
+//! û_a(m) ← û_a(m) · exp(−ν |k(m)|² Δt),     k_a = 2π m_a / (N_a Δx)
 //! ```
 //!
-//! `λ(m)` is the discrete eigenvalue; since `(2 sin(k Δx / 2) / Δx)² = k² (1 −
-//! k²Δx²/12 + O(k⁴Δx⁴))`, this is the continuous heat kernel `e^{−ν|k|²Δt}`
-//! of the design notes with `|k|²` replaced by its second-order accurate
-//! 7-point symbol: spectrally exact in time, second order in space, and
-//! unconditionally stable. Because `D` maps each eigenvector of the face
-//! Laplacian to the matching eigenvector of the cell Laplacian, diffusion
-//! commutes with `D`: a divergence-free field stays divergence-free.
+//! with `m_a` the signed index (periodic; `k_a = π m_a / (N_a Δx)` for the
+//! sine/cosine modes of the closed box). `|k|²` is the continuous wavenumber,
+//! not the 7-point symbol `(2 sin(k Δx / 2) / Δx)² = k² (1 − k²Δx²/12 + …)`:
+//! a resolved mode then decays exactly as in the continuum (the Taylor–Green
+//! vortex to round-off), and the kernel is unconditionally stable. The gain
+//! depends on the mode only, the same for all three components, and `D` is
+//! diagonal in the same modes, so diffusion commutes with `D`: a
+//! divergence-free field stays divergence-free.
 //!
 //! - Periodic box: every component lattice is the cell lattice shifted by
 //!   half a cell, so the eigenvalues are those of the projection.
@@ -154,13 +154,22 @@ fn apply_gain<T: std::ops::MulAssign<f64>>(
     }
 }
 
-/// Per-axis tables for [`apply_gain`].
-fn gain_tables(eig: &[Vec<f64>; 3], filter: Filter) -> [Vec<f64>; 3] {
+/// Per-axis tables for [`apply_gain`]: the eigenvalues, or the heat factors
+/// `exp(−ν k_a² Δt)` with the continuous wavenumber `k_a` recovered from the
+/// eigenvalue `λ = −(2 sin(k_a Δx/2)/Δx)²` (`k_a Δx ∈ [0, π]`).
+fn gain_tables(eig: &[Vec<f64>; 3], filter: Filter, dx: f32) -> [Vec<f64>; 3] {
+    let dx = dx as f64;
     match filter {
         Filter::InverseLaplacian => eig.clone(),
-        Filter::Heat { nu_dt } => {
-            std::array::from_fn(|a| eig[a].iter().map(|&l| (nu_dt * l).exp()).collect())
-        }
+        Filter::Heat { nu_dt } => std::array::from_fn(|a| {
+            eig[a]
+                .iter()
+                .map(|&l| {
+                    let k = 2.0 / dx * (0.5 * dx * (-l).sqrt()).min(1.0).asin();
+                    (-nu_dt * k * k).exp()
+                })
+                .collect()
+        }),
     }
 }
 
@@ -186,6 +195,8 @@ struct PeriodicPlan {
     columns: Vec<Complex64>,
     /// `λ_a(m)` per axis and bin.
     eig: [Vec<f64>; 3],
+    /// Cell size Δx.
+    dx: f32,
 }
 
 impl PeriodicPlan {
@@ -213,6 +224,7 @@ impl PeriodicPlan {
             slabs: vec![Complex64::default(); len],
             columns: vec![Complex64::default(); len],
             eig,
+            dx: domain.cell,
         }
     }
 
@@ -256,7 +268,7 @@ impl PeriodicPlan {
         let [nx, ny, nz] = self.dims;
         assert_eq!(dst.len(), nx * ny * nz, "finish: lattice size");
         let nxh = self.nxh;
-        let tables = gain_tables(&self.eig, filter);
+        let tables = gain_tables(&self.eig, filter, self.dx);
         let Self {
             c2r,
             fft_y: _,
@@ -406,6 +418,8 @@ struct RealConfig {
 struct ClosedPlan {
     /// Index 0: cell centres (pressure); `1 + a`: face component `a`.
     configs: [RealConfig; 4],
+    /// Cell size Δx.
+    dx: f32,
     /// Layout `[z][x][y]` over the transform lengths.
     slabs: Vec<f64>,
     /// Layout `[x][y][z]` over the transform lengths.
@@ -446,6 +460,7 @@ impl ClosedPlan {
         let cells = domain.len();
         Self {
             configs,
+            dx: domain.cell,
             slabs: vec![0.0f64; cells],
             columns: vec![0.0f64; cells],
         }
@@ -487,6 +502,7 @@ impl ClosedPlan {
     fn finish<S: Real>(&mut self, config: usize, filter: Filter, dst: &mut [S]) {
         let Self {
             configs,
+            dx,
             slabs,
             columns,
         } = self;
@@ -498,7 +514,7 @@ impl ClosedPlan {
         let [ax, ay, az] = &cfg.axes;
         let scratch = ax.scratch_len().max(ay.scratch_len()).max(az.scratch_len());
         let n = lx * ly * lz;
-        let tables = gain_tables(&cfg.eig, filter);
+        let tables = gain_tables(&cfg.eig, filter, *dx);
         {
             let slabs = &slabs[..n];
             columns[..n]

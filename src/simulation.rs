@@ -8,6 +8,10 @@
 //! velocity = fftdivfree(velocity, region);                      // eq 6.3
 //! ```
 //!
+//! The velocity lives on the faces of the cells ([`FaceGrid`], the MAC grid;
+//! DESIGN.md "Velocity lives on faces"), the densities at the cell centres.
+//! `fftdivfree` is the exact pressure solve of [`PressureSolver`].
+//!
 //! [`Simulation::step`] is those lines in four verbs: [`Simulation::advect`]
 //! (every `advect(…, velocity, dt)` and `inject` above, each gas in its own
 //! representation — [`crate::density`]), [`Simulation::evaluate_densities`]
@@ -30,8 +34,8 @@ use crate::boundary::Boundary;
 use crate::density::{total_bytes, DensityModel, DensityOptions, StepInput};
 use crate::domain::Domain;
 use crate::field::Scalar;
-use crate::grid::{ScalarGrid, VectorGrid};
-use crate::projection::Projection;
+use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
+use crate::pressure::PressureSolver;
 use crate::timing::{timed, StageTimes};
 
 /// One buoyant gas: its density, where it is injected, and how it lifts.
@@ -108,8 +112,8 @@ pub struct StepParams {
 pub struct Simulation {
     /// Parameters of every step.
     pub params: StepParams,
-    /// Velocity at cell centres, divergence-free after each step.
-    pub velocity: VectorGrid,
+    /// Velocity on the cell faces, discretely divergence-free after each step.
+    pub velocity: FaceGrid,
     /// The gases, advected and injected every step.
     pub gases: Vec<Gas>,
     /// Steps taken.
@@ -118,9 +122,9 @@ pub struct Simulation {
     pub times: StageTimes,
     /// Obstacles and their rule (eqs 6.6–6.7), if any.
     pub boundary: Option<Boundary>,
-    velocity_scratch: VectorGrid,
+    velocity_scratch: FaceGrid,
     advector: Advector,
-    projection: Projection,
+    pressure: PressureSolver,
 }
 
 impl Simulation {
@@ -128,14 +132,14 @@ impl Simulation {
     pub fn new(domain: Domain, params: StepParams, gases: Vec<Gas>) -> Self {
         Self {
             params,
-            velocity: VectorGrid::zeros(domain),
+            velocity: FaceGrid::zeros(domain, BoxKind::Periodic),
             gases,
             step_index: 0,
             times: StageTimes::default(),
             boundary: None,
-            velocity_scratch: VectorGrid::zeros(domain),
+            velocity_scratch: FaceGrid::zeros(domain, BoxKind::Periodic),
             advector: Advector::new(domain, &AdvectionOptions::default(), params.backtrace),
-            projection: Projection::new(domain),
+            pressure: PressureSolver::new(domain, BoxKind::Periodic),
         }
     }
 
@@ -264,32 +268,63 @@ impl Simulation {
     }
 
     /// Eq 6.5, force: `u += −Δt g⃗ Σ lift·ρ` — with hot lift +1 and cold −1
-    /// this is the notes' `dt*gravity*(cold − hot)`.
+    /// this is the notes' `dt*gravity*(cold − hot)`. Each face gets the mean
+    /// of the two cells it separates, `u_a[f] −= Δt g_a (b[f − e_a] + b[f])/2`
+    /// with `b = Σ lift·ρ` at the cell centres; only components along which
+    /// gravity acts are touched, and wall faces of a closed box stay zero.
     pub fn add_buoyancy(&mut self) {
         let p = self.params;
+        let d = *self.domain();
+        let [nx, ny, _] = d.dims;
+        let cell = |c: [usize; 3]| (c[2] * ny + c[1]) * nx + c[0];
         let gases = &self.gases;
-        let slab = self.domain().dims[0] * self.domain().dims[1];
-        self.velocity
-            .as_vec3_mut()
-            .par_chunks_mut(slab)
-            .enumerate()
-            .for_each(|(k, u)| {
-                let base = k * slab;
-                for (n, un) in u.iter_mut().enumerate() {
-                    let mut lift = 0.0;
-                    for g in gases {
-                        lift += g.lift * g.density().as_slice()[base + n];
+        let lift = |n: usize| -> f32 {
+            gases
+                .iter()
+                .map(|g| g.lift * g.density().as_slice()[n])
+                .sum()
+        };
+        for a in 0..3 {
+            let ga = p.dt * p.gravity[a];
+            if ga == 0.0 {
+                continue;
+            }
+            let (dims, n) = (self.velocity.face_dims(a), d.dims[a]);
+            self.velocity
+                .slice_mut(a)
+                .par_chunks_mut(dims[0] * dims[1])
+                .enumerate()
+                .for_each(|(k, slab)| {
+                    for j in 0..dims[1] {
+                        for i in 0..dims[0] {
+                            // The cells below and above face (i, j, k),
+                            // wrapped (periodic); a closed box's wall faces
+                            // read a clamped cell and are zeroed below.
+                            let (mut below, mut above) = ([i, j, k], [i, j, k]);
+                            below[a] = if below[a] == 0 { n - 1 } else { below[a] - 1 };
+                            above[a] = above[a].min(n - 1);
+                            slab[j * dims[0] + i] -=
+                                ga * 0.5 * (lift(cell(below)) + lift(cell(above)));
+                        }
                     }
-                    *un -= p.dt * lift * p.gravity;
-                }
-            });
+                });
+        }
+        self.velocity.zero_walls();
     }
 
-    /// Eq 6.3: make the velocity divergence-free (and diffuse it if ν > 0).
+    /// Eq 6.3: make the velocity exactly (discretely) divergence-free with
+    /// the pressure solve, after diffusing it exactly if ν > 0 (the two
+    /// commute, [`crate::pressure`]).
+    ///
+    /// # Panics
+    /// If the viscosity or Δt is negative or not finite (scenarios refuse
+    /// such configurations with an error before a simulation is built).
     pub fn project(&mut self) {
         let p = self.params;
-        self.projection
-            .project(&mut self.velocity, p.viscosity, p.dt);
+        if let Err(e) = self.pressure.diffuse(&mut self.velocity, p.viscosity, p.dt) {
+            panic!("{e}");
+        }
+        self.pressure.project(&mut self.velocity);
     }
 
     /// Eqs 6.6/6.7 on the obstacles, alternated with the (periodic) projection
@@ -300,8 +335,7 @@ impl Simulation {
         let Some(b) = &self.boundary else { return };
         b.apply(&mut self.velocity);
         for _ in 1..b.passes() {
-            self.projection
-                .project(&mut self.velocity, 0.0, self.params.dt);
+            self.pressure.project(&mut self.velocity);
             b.apply(&mut self.velocity);
         }
     }

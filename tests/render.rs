@@ -336,7 +336,7 @@ fn same_seed_gives_bit_identical_images_on_one_and_two_threads() {
 fn gridless_density_renders_as_its_field_not_a_grid() {
     use smokelab::advection::Backtrace;
     use smokelab::density::GridlessField;
-    use smokelab::grid::{ScalarGrid, VectorGrid};
+    use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid};
 
     let bounds = Domain::cube(8, 2.0).unwrap();
     let blob: Scalar = Arc::new(Gaussian {
@@ -345,7 +345,7 @@ fn gridless_density_renders_as_its_field_not_a_grid() {
         peak: 2.0,
     });
     let mut chain = GridlessField::new(bounds, Some(blob.clone()), None);
-    let rest = Arc::new(VectorGrid::zeros(bounds));
+    let rest = Arc::new(FaceGrid::zeros(bounds, BoxKind::Periodic));
     for _ in 0..3 {
         chain.push(rest.clone(), 0.1, Backtrace::Rk2);
     }

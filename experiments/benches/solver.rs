@@ -1,13 +1,11 @@
-//! Solver benchmarks: one hot/cold step at 64³ and 128³, the projection alone
-//! and semi-Lagrangian advection alone. Planning and warm-up are outside the
+//! Solver benchmarks: one hot/cold step at 64³ and 128³, the MAC pressure
+//! projection alone and semi-Lagrangian advection alone. Planning and warm-up are outside the
 //! timed region. Run: `cargo bench --bench solver`.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use smokelab::advection::{
-    advect_fused, interpolate_scalar, interpolate_vector, Backtrace, Departures,
-};
-use smokelab::grid::ScalarGrid;
-use smokelab::projection::Projection;
+use smokelab::advection::{advect_faces, advect_fused, interpolate_scalar, Backtrace, Departures};
+use smokelab::grid::{BoxKind, ScalarGrid};
+use smokelab::pressure::PressureSolver;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
@@ -36,10 +34,10 @@ fn benches(c: &mut Criterion) {
         let cells = sim.domain().len() as u64;
         g.throughput(Throughput::Elements(cells));
         g.bench_function(BenchmarkId::new("step", res), |b| b.iter(|| sim.step()));
-        let mut projection = Projection::new(*sim.domain());
+        let mut pressure = PressureSolver::new(*sim.domain(), BoxKind::Periodic);
         let mut vel = sim.velocity.clone();
         g.bench_function(BenchmarkId::new("projection", res), |b| {
-            b.iter(|| projection.project(&mut vel, 0.0, 0.05))
+            b.iter(|| pressure.project(&mut vel))
         });
         let mut dep = Departures::new(*sim.domain());
         g.bench_function(BenchmarkId::new("sl_trace_rk2", res), |b| {
@@ -50,8 +48,8 @@ fn benches(c: &mut Criterion) {
             b.iter(|| interpolate_scalar(sim.gases[0].density(), &dep, &mut rho))
         });
         let mut u = sim.velocity.clone();
-        g.bench_function(BenchmarkId::new("sl_interpolate_vector", res), |b| {
-            b.iter(|| interpolate_vector(&sim.velocity, &dep, &mut u))
+        g.bench_function(BenchmarkId::new("sl_advect_faces", res), |b| {
+            b.iter(|| advect_faces(&sim.velocity, &sim.velocity, 0.05, Backtrace::Rk2, &mut u))
         });
         let mut rho2 = rho.clone();
         g.bench_function(BenchmarkId::new("sl_fused_two_gases", res), |b| {

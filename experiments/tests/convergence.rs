@@ -6,7 +6,6 @@
 
 use smokelab::advection::Backtrace;
 use smokelab::noise::curl::FdScheme;
-use smokelab::projection::Operator;
 use smokelab_app::convergence_cases::{self as cases, Sampling, Study};
 use smokelab_app::registry::{Context, Size};
 
@@ -90,17 +89,8 @@ fn finite_difference_curl_noise_divergence_vanishes_at_the_scheme_order() {
 }
 
 #[test]
-fn projection_with_discrete_wavenumbers_is_second_order() {
-    assert_order(&cases::projection_discrete(&[16, 32, 64]));
-}
-
-#[test]
-fn spectral_projection_is_exact_for_band_limited_data() {
-    for n in [16, 32] {
-        let e = cases::projection_error(n, Operator::Spectral);
-        println!("spectral projection, n = {n}: rms error {e:.3e}");
-        assert!(e <= 1e-5, "spectral projection error {e} at n = {n}");
-    }
+fn mac_projection_is_second_order() {
+    assert_order(&cases::projection_mac(&[16, 32, 64]));
 }
 
 /// C-1 at its default (larger) sizes, written to a temporary folder: every

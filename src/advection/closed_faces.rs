@@ -1,10 +1,10 @@
 //! Divergence-free face velocities around obstacles.
 //!
 //! QUICK closes every face that touches an obstacle cell (zero face
-//! velocity: nothing flows into or out of an obstacle). The collocated
-//! velocity comes from the periodic FFT projection, which knows nothing of
-//! obstacles, so next to an obstacle the averaged face velocities of the
-//! open faces no longer balance: fluid would pile up against the wall
+//! velocity: nothing flows into or out of an obstacle). The staggered
+//! velocity comes from the periodic pressure solve, which knows nothing of
+//! obstacles, so next to an obstacle the face velocities of the open faces
+//! no longer balance once the closed ones are zeroed: fluid would pile up against the wall
 //! (mass is conserved and cannot leave through a closed face). This module
 //! removes that imbalance with a pressure-like potential `p` on the graph of
 //! open faces:

@@ -19,11 +19,10 @@ pub mod semi_lagrangian;
 use serde::{Deserialize, Serialize};
 
 use crate::domain::Domain;
-use crate::grid::{ScalarGrid, VectorGrid};
+use crate::grid::{FaceGrid, ScalarGrid};
 pub use quick::{CflError, Limiter, Quick, QuickOptions};
 pub use semi_lagrangian::{
-    advect_fused, advect_scalar, advect_vector, departure_point, interpolate_scalar,
-    interpolate_vector, Departures,
+    advect_faces, advect_fused, advect_scalar, departure_point, interpolate_scalar, Departures,
 };
 
 /// How the departure point `x − ∫u dt` of a semi-Lagrangian step is traced.
@@ -125,11 +124,11 @@ impl Advector {
     /// If the grids are on different domains or the slices differ in length.
     pub fn advect(
         &mut self,
-        vel: &VectorGrid,
+        vel: &FaceGrid,
         dt: f32,
         srcs: &[&ScalarGrid],
         dsts: &mut [&mut ScalarGrid],
-        vel_out: &mut VectorGrid,
+        vel_out: &mut FaceGrid,
     ) -> Result<(), CflError> {
         match self {
             Advector::SemiLagrangian { backtrace } => {
@@ -148,7 +147,7 @@ impl Advector {
                 for (src, dst) in srcs.iter().zip(dsts.iter_mut()) {
                     quick.advect_scalar(src, dst, *density_limiter);
                 }
-                quick.advect_vector(vel, vel_out, Limiter::None);
+                quick.advect_faces(vel, vel_out);
             }
         }
         Ok(())

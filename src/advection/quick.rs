@@ -6,20 +6,23 @@
 //! A quantity `q` at the cell centres changes by the fluxes through the six
 //! faces of each cell, `∂q/∂t = −(1/Δx) Σ_axes (F_{+½} − F_{−½})`, with
 //! `F = U_f q_f`:
-//! - the **face velocity** `U_f` is the average of the two cell-centred
-//!   velocities either side, `U_{i+½} = (u_i + u_{i+1})/2`. The finite-volume
-//!   divergence of these face velocities *is* the central-difference divergence
-//!   `Σ (u_{i+1} − u_{i−1})/2Δx` that [`crate::projection`] annihilates, so
-//!   after a projection the face fluxes are discretely divergence-free: a
-//!   constant stays constant and `Σ q Δx³` is conserved to round-off;
+//! - the **face velocity** `U_f` is the staggered velocity's own face value
+//!   ([`FaceGrid`]): `U_{i+½} = u[i+1]`. Its finite-volume divergence *is*
+//!   the compact divergence that [`crate::pressure`] annihilates, so after a
+//!   projection the face fluxes are discretely divergence-free: a constant
+//!   stays constant and `Σ q Δx³` is conserved to round-off;
 //! - the **face value** is Leonard's QUICK quadratic through the two upwind
 //!   cells and one downwind cell, `q_f = 6/8 q_C + 3/8 q_D − 1/8 q_U` (C the
 //!   cell upwind of the face, D the one downwind, U the next one upwind).
 //!
 //! The advecting velocity is frozen at the start of the step (as the
 //! semi-Lagrangian step traces all departures through `u(t)`), so the face
-//! velocities are computed once per step by [`Quick::prepare`] and shared by
-//! every density and by the velocity's own components.
+//! Courant numbers are computed once per step by [`Quick::prepare`] and shared
+//! by every density. Each velocity component lives on its own lattice, the
+//! cells shifted by half a cell along its axis; [`Quick::advect_faces`] moves
+//! it through that lattice's control volumes, whose face velocities are the
+//! means of the two cells' face velocities they straddle, so they are
+//! divergence-free whenever the cells' are.
 //!
 //! # Time integration and stability
 //! Time stepping is the three-stage strong-stability-preserving Runge–Kutta
@@ -74,7 +77,7 @@ use serde::{Deserialize, Serialize};
 use super::closed_faces::FacePressure;
 use super::lattice::Lattice;
 use crate::domain::Domain;
-use crate::grid::{ScalarGrid, VectorGrid};
+use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
 
 /// Largest Courant number at which SSP-RK3 keeps every Fourier mode of the
 /// QUICK operator bounded (1.8521…, found numerically from the amplification
@@ -226,7 +229,10 @@ pub struct Quick {
     passes: Passes,
     stage1: Vec<f32>,
     stage2: Vec<f32>,
-    component: Vec<f32>,
+    /// Face Courant numbers and open faces of one velocity component's
+    /// lattice ([`Quick::advect_faces`]).
+    staggered_faces: [Vec<f32>; 3],
+    staggered_open: [Vec<bool>; 3],
 }
 
 impl Quick {
@@ -258,7 +264,8 @@ impl Quick {
             },
             stage1: zeros(),
             stage2: zeros(),
-            component: zeros(),
+            staggered_faces: std::array::from_fn(|_| zeros()),
+            staggered_open: std::array::from_fn(|_| vec![true; n]),
         }
     }
 
@@ -318,8 +325,9 @@ impl Quick {
         self.courant
     }
 
-    /// Freeze the advecting velocity `vel` for a step of `dt`: face velocities
-    /// by averaging, the step's Courant number, and the number of sub-steps.
+    /// Freeze the advecting velocity `vel` for a step of `dt`: its face
+    /// values as Courant numbers, the step's Courant number, and the number
+    /// of sub-steps.
     ///
     /// # Errors
     /// [`CflError`] if the step needs sub-steps and they are forbidden, needs
@@ -327,16 +335,18 @@ impl Quick {
     /// then holds no usable step.
     ///
     /// # Panics
-    /// If `vel` is on another domain.
-    pub fn prepare(&mut self, vel: &VectorGrid, dt: f32) -> Result<usize, CflError> {
+    /// If `vel` is on another domain or in a closed box (QUICK's lattice is
+    /// periodic; walls are obstacles, [`Quick::set_solid`]).
+    pub fn prepare(&mut self, vel: &FaceGrid, dt: f32) -> Result<usize, CflError> {
         assert_eq!(
             vel.domain(),
             &self.domain,
             "QUICK: velocity on another domain"
         );
+        assert_eq!(vel.kind(), BoxKind::Periodic, "QUICK: closed box");
         let lat = &self.lattice;
-        let scale = 0.5 * dt / self.domain.cell;
-        let u = vel.as_vec3();
+        let scale = dt / self.domain.cell;
+        let (u, v, w) = (vel.slice(0), vel.slice(1), vel.slice(2));
         let [cx, cy, cz] = &mut self.courant_faces;
         let open = &self.open;
         cx.par_chunks_mut(lat.slab())
@@ -350,11 +360,10 @@ impl Quick {
                     for i in 0..lat.nx {
                         let n = j * lat.nx + i;
                         let g = lat.idx(i, j, k);
-                        let c = u[g];
                         let f = |open: bool, v: f32| if open { scale * v } else { 0.0 };
-                        fx[n] = f(open[0][g], c.x + u[lat.idx(lat.x.at(i, 1), j, k)].x);
-                        fy[n] = f(open[1][g], c.y + u[lat.idx(i, jp, k)].y);
-                        fz[n] = f(open[2][g], c.z + u[lat.idx(i, j, kp)].z);
+                        fx[n] = f(open[0][g], u[lat.idx(lat.x.at(i, 1), j, k)]);
+                        fy[n] = f(open[1][g], v[lat.idx(i, jp, k)]);
+                        fz[n] = f(open[2][g], w[lat.idx(i, j, kp)]);
                     }
                 }
             });
@@ -459,12 +468,16 @@ impl Quick {
         self.advance(out, limiter, Form::Conservative);
     }
 
-    /// Advect every component of a vector grid through the prepared step
-    /// (eq 6.5's `advect(velocity, velocity, dt)` when `src` is the velocity).
+    /// Advect every component of a staggered field through the prepared
+    /// step (eq 6.5's `advect(velocity, velocity, dt)` when `src` is the
+    /// velocity), in advective form and unlimited. Component `a` lives on
+    /// the cells shifted by `−½e_a`; the faces of its control volume around
+    /// face `f` straddle the cells `f − e_a` and `f`, and carry the mean of
+    /// their two face Courant numbers (open only if both are).
     ///
     /// # Panics
     /// As [`Self::advect_scalar`].
-    pub fn advect_vector(&mut self, src: &VectorGrid, dst: &mut VectorGrid, limiter: Limiter) {
+    pub fn advect_faces(&mut self, src: &FaceGrid, dst: &mut FaceGrid) {
         assert_eq!(
             src.domain(),
             &self.domain,
@@ -475,17 +488,39 @@ impl Quick {
             &self.domain,
             "QUICK: target on another domain"
         );
-        for c in 0..3 {
-            let mut q = std::mem::take(&mut self.component);
-            q.par_iter_mut()
-                .zip(src.as_slice().par_chunks(3))
-                .for_each(|(q, v)| *q = v[c]);
-            self.advance(&mut q, limiter, Form::Advective);
-            dst.as_slice_mut()
-                .par_chunks_mut(3)
-                .zip(q.par_iter())
-                .for_each(|(v, q)| v[c] = *q);
-            self.component = q;
+        for a in 0..3 {
+            self.stagger(a);
+            std::mem::swap(&mut self.courant_faces, &mut self.staggered_faces);
+            std::mem::swap(&mut self.open, &mut self.staggered_open);
+            let q = dst.slice_mut(a);
+            q.copy_from_slice(src.slice(a));
+            self.advance(q, Limiter::None, Form::Advective);
+            std::mem::swap(&mut self.courant_faces, &mut self.staggered_faces);
+            std::mem::swap(&mut self.open, &mut self.staggered_open);
+        }
+    }
+
+    /// Face Courant numbers and open faces of component `a`'s lattice.
+    fn stagger(&mut self, a: usize) {
+        let lat = &self.lattice;
+        let (cf, open) = (&self.courant_faces, &self.open);
+        for b in 0..3 {
+            self.staggered_faces[b]
+                .par_chunks_mut(lat.slab())
+                .zip(self.staggered_open[b].par_chunks_mut(lat.slab()))
+                .enumerate()
+                .for_each(|(k, (fs, os))| {
+                    for j in 0..lat.ny {
+                        for i in 0..lat.nx {
+                            let n = lat.idx(i, j, k);
+                            let mut below = [i, j, k];
+                            below[a] = [&lat.x, &lat.y, &lat.z][a].at(below[a], -1);
+                            let m = lat.idx(below[0], below[1], below[2]);
+                            fs[j * lat.nx + i] = 0.5 * (cf[b][n] + cf[b][m]);
+                            os[j * lat.nx + i] = open[b][n] && open[b][m];
+                        }
+                    }
+                });
         }
     }
 
@@ -701,7 +736,7 @@ fn outflow_bounds(
 /// As [`Quick::prepare`].
 pub fn advect_scalar(
     src: &ScalarGrid,
-    vel: &VectorGrid,
+    vel: &FaceGrid,
     dt: f32,
     options: QuickOptions,
     limiter: Limiter,
@@ -719,8 +754,8 @@ mod tests {
     use crate::field::ops;
     use glam::Vec3;
 
-    fn uniform(d: Domain, u: Vec3) -> VectorGrid {
-        VectorGrid::from_field(d, &*ops::constant_vector(u))
+    fn uniform(d: Domain, u: Vec3) -> FaceGrid {
+        FaceGrid::from_field(d, BoxKind::Periodic, &*ops::constant_vector(u))
     }
 
     #[test]
@@ -777,8 +812,8 @@ mod tests {
                 )
             }
         }
-        let mut vel = VectorGrid::from_field(d, &Swirl);
-        crate::projection::Projection::new(d).project(&mut vel, 0.0, 1.0);
+        let mut vel = FaceGrid::from_field(d, BoxKind::Periodic, &Swirl);
+        crate::pressure::PressureSolver::new(d, BoxKind::Periodic).project(&mut vel);
         let src = ScalarGrid::from_field(d, &*ops::constant(2.5));
         let mut dst = ScalarGrid::zeros(d);
         for limiter in Limiter::ALL {

@@ -1,20 +1,21 @@
-//! Semi-Lagrangian advection (eqs 6.4–6.5), grid to grid.
+//! Semi-Lagrangian advection (eqs 6.4–6.5), grid to grid, on the staggered
+//! (MAC) velocity of [`FaceGrid`].
 //!
-//! For every cell centre `x` the departure point `x_d` is traced backwards
-//! through the velocity grid with the chosen [`Backtrace`], and the advected
-//! quantity is interpolated trilinearly there: `q_new(x) = q(x_d)`.
+//! For every sample point `x` — a cell centre for densities, a face centre of
+//! its own lattice for each velocity component — the departure point `x_d` is
+//! traced backwards through the velocity's point query (each component
+//! trilinear on its own lattice, [`FaceGrid::sample_grid_coords`]) with the
+//! chosen [`Backtrace`], and the advected quantity is interpolated trilinearly
+//! there: `q_new(x) = q(x_d)`. Work is done in continuous cell-centre grid
+//! coordinates (cell centres at integers, component `a`'s faces at
+//! `(i, j, k) − ½e_a`): a velocity `u` moves a point by `u Δt / Δx` cells.
 //!
-//! All quantities of one step (every density and the velocity itself) move
-//! with the same velocity, so the departure points are traced once per step
-//! into [`Departures`] and reused by every [`interpolate_scalar`] /
-//! [`interpolate_vector`]. Work is done in continuous grid coordinates (cell
-//! centres at integers): a velocity `u` moves a point by `u Δt / Δx` cells,
-//! and the first velocity sample of every backtrace is the cell's own value,
-//! read without interpolation.
-//!
-//! [`advect_fused`] does the whole step of a simulation in one pass: for each
-//! cell it traces the departure point once and interpolates the velocity and
-//! every density there with one shared stencil, so memory is swept once.
+//! All densities of one step move with the same velocity, so the departure
+//! points of the cell centres are traced once per step and shared: by
+//! [`Departures`] and [`interpolate_scalar`], or inside [`advect_fused`],
+//! which does the whole step of a simulation — every density through one
+//! stencil per cell, then each velocity component along its own faces'
+//! departures — without storing any departure point.
 //!
 //! Parallel over z-slabs with rayon; no per-cell allocation.
 
@@ -23,7 +24,7 @@ use rayon::prelude::*;
 
 use super::Backtrace;
 use crate::domain::Domain;
-use crate::grid::{ScalarGrid, Stencil, VectorGrid, Wrap};
+use crate::grid::{FaceGrid, ScalarGrid, Stencil, Wrap};
 
 /// The departure point of every cell centre for one step, in grid coordinates.
 #[derive(Clone, Debug)]
@@ -60,7 +61,7 @@ impl Departures {
     ///
     /// # Panics
     /// If `vel` is on another domain.
-    pub fn trace(&mut self, vel: &VectorGrid, dt: f32, backtrace: Backtrace) {
+    pub fn trace(&mut self, vel: &FaceGrid, dt: f32, backtrace: Backtrace) {
         assert_eq!(
             vel.domain(),
             &self.domain,
@@ -68,65 +69,81 @@ impl Departures {
         );
         let dt_cells = dt / self.domain.cell;
         let [nx, ny, _] = self.domain.dims;
-        let u = vel.as_vec3();
         let sampler = VelocitySampler::new(vel);
         self.points
             .par_chunks_mut(nx * ny)
-            .zip(u.par_chunks(nx * ny))
             .enumerate()
-            .for_each(|(k, (out, u0))| {
+            .for_each(|(k, out)| {
                 for j in 0..ny {
                     for i in 0..nx {
-                        let n = j * nx + i;
                         let c = Vec3::new(i as f32, j as f32, k as f32);
-                        out[n] = departure(sampler, c, u0[n], dt_cells, backtrace);
+                        out[j * nx + i] = departure(sampler, c, dt_cells, backtrace);
                     }
                 }
             });
     }
 }
 
-/// Departure point, in grid coordinates, of an arbitrary point `g` (grid
-/// coordinates) traced back through `vel` over `dt_cells = Δt/Δx` cells.
+/// Departure point, in cell-centre grid coordinates, of an arbitrary point
+/// `g` (grid coordinates) traced back through `vel` over `dt_cells = Δt/Δx`
+/// cells.
 ///
-/// The same arithmetic as [`Departures::trace`]: at a cell centre the result
-/// is bit-identical (trilinear interpolation at an integer point returns the
-/// sample itself). Gridless and SELMA densities use it so that their
-/// characteristics are exactly those of the gridded path.
+/// The same arithmetic as [`Departures::trace`] and [`advect_fused`], so
+/// gridless and SELMA densities follow exactly the characteristics of the
+/// gridded path.
 #[inline]
-pub fn departure_point(vel: &VectorGrid, g: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
-    let vel = VelocitySampler::new(vel);
-    departure(vel, g, vel.at(g), dt_cells, backtrace)
+pub fn departure_point(vel: &FaceGrid, g: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
+    departure(VelocitySampler::new(vel), g, dt_cells, backtrace)
 }
 
-/// Trilinear velocity lookups with the grid's slice and layout hoisted out of
-/// the per-cell loop.
+/// The staggered velocity's point query with the component slices and
+/// layouts hoisted out of the per-point loop.
 #[derive(Clone, Copy)]
 struct VelocitySampler<'a> {
-    data: &'a [f32],
-    dims: [usize; 3],
+    data: [&'a [f32]; 3],
+    dims: [[usize; 3]; 3],
     wrap: Wrap,
 }
 
 impl<'a> VelocitySampler<'a> {
-    fn new(vel: &'a VectorGrid) -> Self {
+    fn new(vel: &'a FaceGrid) -> Self {
         Self {
-            data: vel.as_slice(),
-            dims: vel.domain().dims,
-            wrap: vel.wrap(),
+            data: [vel.slice(0), vel.slice(1), vel.slice(2)],
+            dims: std::array::from_fn(|a| vel.face_dims(a)),
+            wrap: vel.kind().wrap(),
         }
+    }
+
+    /// Component `a` at cell-centre grid coordinates `g` (its lattice is
+    /// shifted by `−½e_a`).
+    #[inline(always)]
+    fn component(&self, a: usize, g: Vec3) -> f32 {
+        self.component_of(a, self.data[a], g)
+    }
+
+    /// `data`, laid out like component `a`'s lattice, interpolated at
+    /// cell-centre grid coordinates `g`.
+    #[inline(always)]
+    fn component_of(&self, a: usize, data: &[f32], mut g: Vec3) -> f32 {
+        g[a] += 0.5;
+        Stencil::new(g, self.dims[a], self.wrap).apply(data)
     }
 
     #[inline(always)]
     fn at(&self, g: Vec3) -> Vec3 {
-        Stencil::new(g, self.dims, self.wrap).apply_vec3(self.data)
+        Vec3::new(
+            self.component(0, g),
+            self.component(1, g),
+            self.component(2, g),
+        )
     }
 }
 
-/// Departure point, in grid coordinates, of the cell centre `c` whose own
-/// velocity is `u0`, after `dt_cells = Δt/Δx`.
+/// Departure point, in grid coordinates, of the point `c` after
+/// `dt_cells = Δt/Δx`.
 #[inline(always)]
-fn departure(vel: VelocitySampler, c: Vec3, u0: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
+fn departure(vel: VelocitySampler, c: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
+    let u0 = vel.at(c);
     match backtrace {
         Backtrace::Euler => c - dt_cells * u0,
         Backtrace::Rk2 => c - dt_cells * vel.at(c - 0.5 * dt_cells * u0),
@@ -168,39 +185,12 @@ pub fn interpolate_scalar(src: &ScalarGrid, dep: &Departures, dst: &mut ScalarGr
         });
 }
 
-/// `dst(x) = src(x_d)` for a vector grid.
-///
-/// # Panics
-/// If the grids are not on the departures' domain.
-pub fn interpolate_vector(src: &VectorGrid, dep: &Departures, dst: &mut VectorGrid) {
-    let d = dep.domain;
-    assert_eq!(
-        src.domain(),
-        &d,
-        "interpolate_vector: source on another domain"
-    );
-    assert_eq!(
-        dst.domain(),
-        &d,
-        "interpolate_vector: target on another domain"
-    );
-    let (data, wrap) = (src.as_slice(), src.wrap());
-    dst.as_vec3_mut()
-        .par_chunks_mut(4096)
-        .zip(dep.points.par_chunks(4096))
-        .for_each(|(out, pts)| {
-            for (o, &g) in out.iter_mut().zip(pts) {
-                *o = Stencil::new(g, d.dims, wrap).apply_vec3(data);
-            }
-        });
-}
-
 /// `dst = src(x − ∫u dt)`: advect a scalar grid by `vel` over `dt` (eq 6.4
 /// without the source). Allocates its departure points; time steps that move
-/// several quantities use [`Departures`] directly.
+/// several quantities use [`Departures`] or [`advect_fused`].
 pub fn advect_scalar(
     src: &ScalarGrid,
-    vel: &VectorGrid,
+    vel: &FaceGrid,
     dt: f32,
     backtrace: Backtrace,
     dst: &mut ScalarGrid,
@@ -210,32 +200,60 @@ pub fn advect_scalar(
     interpolate_scalar(src, &dep, dst);
 }
 
-/// `dst = src(x − ∫u dt)` for a vector grid (eq 6.5 without the force).
-pub fn advect_vector(
-    src: &VectorGrid,
-    vel: &VectorGrid,
+/// `dst = src(x − ∫u dt)` for a staggered field (eq 6.5 without the force):
+/// each component of `src` interpolated on its own lattice at the departure
+/// points of its own faces. In a closed box the wall faces stay zero.
+///
+/// # Panics
+/// If the grids differ in domain or box kind.
+pub fn advect_faces(
+    src: &FaceGrid,
+    vel: &FaceGrid,
     dt: f32,
     backtrace: Backtrace,
-    dst: &mut VectorGrid,
+    dst: &mut FaceGrid,
 ) {
-    let mut dep = Departures::new(*vel.domain());
-    dep.trace(vel, dt, backtrace);
-    interpolate_vector(src, &dep, dst);
+    for g in [src, &*dst] {
+        assert_eq!(g.domain(), vel.domain(), "advect_faces: another domain");
+        assert_eq!(g.kind(), vel.kind(), "advect_faces: another box kind");
+    }
+    let sampler = VelocitySampler::new(vel);
+    let dt_cells = dt / vel.domain().cell;
+    for a in 0..3 {
+        let dims = dst.face_dims(a);
+        let data = src.slice(a);
+        dst.slice_mut(a)
+            .par_chunks_mut(dims[0] * dims[1])
+            .enumerate()
+            .for_each(|(k, out)| {
+                for j in 0..dims[1] {
+                    for i in 0..dims[0] {
+                        let mut c = Vec3::new(i as f32, j as f32, k as f32);
+                        c[a] -= 0.5;
+                        let g = departure(sampler, c, dt_cells, backtrace);
+                        out[j * dims[0] + i] = sampler.component_of(a, data, g);
+                    }
+                }
+            });
+    }
+    dst.zero_walls();
 }
 
 /// One semi-Lagrangian step for everything that moves with `vel`:
-/// `vel_out = vel(x_d)` and `dsts[n] = srcs[n](x_d)` with the departure point
-/// `x_d` traced once per cell (eqs 6.4–6.5 without sources and forces).
+/// `dsts[n] = srcs[n](x_d)` at the cell centres, the departure point `x_d`
+/// traced once per cell and shared through one stencil, then
+/// `vel_out = vel(x_d)` along each component's faces ([`advect_faces`])
+/// (eqs 6.4–6.5 without sources and forces).
 ///
 /// # Panics
 /// If a grid is on another domain, or `srcs` and `dsts` differ in length.
 pub fn advect_fused(
-    vel: &VectorGrid,
+    vel: &FaceGrid,
     dt: f32,
     backtrace: Backtrace,
     srcs: &[&ScalarGrid],
     dsts: &mut [&mut ScalarGrid],
-    vel_out: &mut VectorGrid,
+    vel_out: &mut FaceGrid,
 ) {
     let d = *vel.domain();
     assert_eq!(
@@ -245,11 +263,6 @@ pub fn advect_fused(
         srcs.len(),
         dsts.len()
     );
-    assert_eq!(
-        vel_out.domain(),
-        &d,
-        "advect_fused: velocity target on another domain"
-    );
     for g in srcs
         .iter()
         .map(|g| g.domain())
@@ -257,49 +270,50 @@ pub fn advect_fused(
     {
         assert_eq!(g, &d, "advect_fused: density on another domain");
     }
+    advect_faces(vel, vel, dt, backtrace, vel_out);
+    if srcs.is_empty() {
+        return;
+    }
     let [nx, ny, _] = d.dims;
     let slab = nx * ny;
     let dt_cells = dt / d.cell;
-    let (u, sampler) = (vel.as_vec3(), VelocitySampler::new(vel));
+    let sampler = VelocitySampler::new(vel);
     let src: Vec<(&[f32], Wrap)> = srcs.iter().map(|g| (g.as_slice(), g.wrap())).collect();
     // Split every target into z-slabs and regroup them per slab.
-    let mut slabs: Vec<(&mut [Vec3], Vec<&mut [f32]>)> = vel_out
-        .as_vec3_mut()
-        .chunks_mut(slab)
-        .map(|c| (c, Vec::with_capacity(dsts.len())))
+    let mut slabs: Vec<Vec<&mut [f32]>> = (0..d.dims[2])
+        .map(|_| Vec::with_capacity(dsts.len()))
         .collect();
     for dst in dsts.iter_mut() {
         for (s, chunk) in slabs.iter_mut().zip(dst.as_slice_mut().chunks_mut(slab)) {
-            s.1.push(chunk);
+            s.push(chunk);
         }
     }
-    // One row at a time: trace and build the stencils of the row, then sweep
-    // each quantity through them (tight loops, stencils hot in L1).
+    // One row at a time: trace the row's departure points and build their
+    // stencils once, then sweep each density through them (tight loops,
+    // stencils hot in L1); a density with another wrap builds its own.
+    let wrap = src[0].1;
     slabs.into_par_iter().enumerate().for_each_init(
         || (Vec::with_capacity(nx), Vec::with_capacity(nx)),
-        |(points, stencils), (k, (vout, mut outs))| {
+        |(points, stencils), (k, mut outs)| {
             for j in 0..ny {
                 let row = j * nx..(j + 1) * nx;
                 points.clear();
                 stencils.clear();
-                for (i, &u0) in u[k * slab + j * nx..][..nx].iter().enumerate() {
+                for i in 0..nx {
                     let c = Vec3::new(i as f32, j as f32, k as f32);
-                    let g = departure(sampler, c, u0, dt_cells, backtrace);
+                    let g = departure(sampler, c, dt_cells, backtrace);
                     points.push(g);
-                    stencils.push(Stencil::new(g, d.dims, sampler.wrap));
+                    stencils.push(Stencil::new(g, d.dims, wrap));
                 }
-                for (o, st) in vout[row.clone()].iter_mut().zip(stencils.iter()) {
-                    *o = st.apply_vec3(sampler.data);
-                }
-                for ((data, wrap), out) in src.iter().zip(outs.iter_mut()) {
+                for ((data, w), out) in src.iter().zip(outs.iter_mut()) {
                     let out = &mut out[row.clone()];
-                    if *wrap == sampler.wrap {
+                    if *w == wrap {
                         for (o, st) in out.iter_mut().zip(stencils.iter()) {
                             *o = st.apply(data);
                         }
                     } else {
                         for (o, &g) in out.iter_mut().zip(points.iter()) {
-                            *o = Stencil::new(g, d.dims, *wrap).apply(data);
+                            *o = Stencil::new(g, d.dims, *w).apply(data);
                         }
                     }
                 }

@@ -1,5 +1,5 @@
 //! Obstacles in the flow: the reflecting (eq 6.6) and sticky (eq 6.7) rules
-//! of the notes' §6.3, applied to a velocity grid.
+//! of the notes' §6.3, applied to the staggered velocity.
 //!
 //! An obstacle is a level set `O(x)`, positive inside ([`level_set`]). Where
 //! the fluid is inside or on an obstacle and flows inward — `O ≥ 0` and
@@ -13,35 +13,25 @@
 //!
 //! so the inward normal component becomes `−α` times itself (reflect is
 //! α = 1) and the tangential part is untouched. Elsewhere the velocity is
-//! unchanged. `O` and the unit normal `∇O/|∇O|` are sampled once at the cell
-//! centres when a [`Boundary`] is built (obstacles do not move).
+//! unchanged. On the MAC grid the rule acts face by face: at every face of
+//! component `a` with `O ≥ 0`, `u` is the velocity's point query there (the
+//! face's own component and the other two interpolated), and only `u_a` is
+//! updated, `u_a −= (1+α)(u·n) n_a`. `O` and the unit normal `n = ∇O/|∇O|`
+//! are sampled once at the cell centres and at those faces when a
+//! [`Boundary`] is built (obstacles do not move).
 //!
 //! # Boundary and projection
-//! The FFT projection is periodic and knows nothing of obstacles: after a
+//! The pressure solve is periodic and knows nothing of obstacles: after a
 //! projection the rule is broken, and after the rule the velocity is
 //! divergent near obstacles. The simulation applies the rule and the
 //! projection alternately [`Boundary::passes`] times (default 4) and always
-//! *ends with the rule*, so no cell inside an obstacle flows inward after a
-//! step; the divergence left near obstacles is reported in `metrics.csv`
-//! (`div_fluid_*`), with the leak (`obstacle_*`: density deeper than one cell
-//! inside obstacles). Measured on slab-box at 32³ with the plume on the slab
-//! (`cargo test --release --test quick_boundary interplay -- --ignored
-//! --nocapture`, steps 40–80, SL / QUICK):
-//!
-//! | passes | fluid div rms | fluid div max | rim inward if a projection came last |
-//! |---|---|---|---|
-//! | 1 | 2.3e-2 / 2.9e-2 | 0.90 / 0.65 | 4.2e-2 / 4.4e-2 rms\|u\| |
-//! | 2 | 7.7e-3 / 1.5e-2 | 0.16 / 0.25 | 2.0e-2 / 2.6e-2 |
-//! | 4 | 2.9e-3 / 8.4e-3 | 0.031 / 0.15 | 1.0e-2 / 1.6e-2 |
-//! | 8 | 1.7e-3 / 4.9e-3 | 0.020 / 0.083 | 6.3e-3 / 9.9e-3 |
-//!
-//! Ending with a projection would leave 1–4 % of the flow going into the
-//! obstacles' rim; ending with the rule leaves none, at the price of that
-//! divergence. Four passes cut the divergence several-fold for three extra
-//! FFT projections per step. A DCT/DST projection would make the *box walls*
-//! exact, but not the slab; QUICK instead closes every obstacle face and
-//! makes its advecting face velocities divergence-free around obstacles with
-//! a small Poisson solve ([`crate::advection::quick`]), so densities advected
+//! *ends with the rule*; the divergence left near obstacles is reported in
+//! `metrics.csv` (`div_fluid_*`, the compact divergence over fluid cells),
+//! with the leak (`obstacle_*`: density deeper than one cell inside
+//! obstacles). This is the notes' method, kept to reproduce them; it leaks
+//! (README, "Obstacles"). QUICK instead closes every obstacle face and makes
+//! its advecting face velocities divergence-free around obstacles with a
+//! small Poisson solve ([`crate::advection::quick`]), so densities advected
 //! by QUICK neither leak into obstacles nor pile up against them.
 
 pub mod level_set;
@@ -52,7 +42,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::domain::Domain;
 use crate::error::InputError;
-use crate::grid::{ScalarGrid, VectorGrid};
+use crate::grid::{FaceGrid, ScalarGrid};
 use crate::metrics::{rms_max, RmsMax};
 pub use level_set::{
     AsField, Cuboid, FieldLevelSet, LevelSet, Obstacle, Slab, Sphere, Union, Walls,
@@ -128,8 +118,21 @@ pub struct Boundary {
     options: BoundaryOptions,
     /// `O` at the cell centres.
     level: ScalarGrid,
-    /// Unit `∇O/|∇O|` where `O ≥ 0` (zero elsewhere and where `∇O = 0`).
-    normal: Vec<Vec3>,
+    /// Per velocity component, its faces with `O ≥ 0` (periodic box).
+    faces: [Vec<SolidFace>; 3],
+}
+
+/// A face inside or on an obstacle.
+#[derive(Clone, Copy, Debug)]
+struct SolidFace {
+    /// Index into its component's array.
+    index: usize,
+    /// Position in cell-centre grid coordinates.
+    at: Vec3,
+    /// `O` there (≥ 0).
+    level: f32,
+    /// Unit `∇O/|∇O|` (zero where `∇O = 0`).
+    normal: Vec3,
 }
 
 impl Boundary {
@@ -144,24 +147,29 @@ impl Boundary {
     ) -> Result<Self, InputError> {
         options.validate()?;
         let level = ScalarGrid::from_field(domain, &AsField(obstacle.clone()));
-        let mut normal = vec![Vec3::ZERO; domain.len()];
-        let slab = domain.dims[0] * domain.dims[1];
-        normal
-            .par_chunks_mut(slab)
-            .zip(level.as_slice().par_chunks(slab))
-            .enumerate()
-            .for_each_init(Vec::new, |points, (k, (n, o))| {
-                domain.slab_centers(k, points);
-                for ((n, &o), &p) in n.iter_mut().zip(o).zip(points.iter()) {
-                    if o >= 0.0 {
-                        *n = obstacle.gradient(p).normalize_or_zero();
-                    }
-                }
-            });
+        let faces = std::array::from_fn(|a| {
+            let [nx, ny, nz] = domain.dims;
+            (0..nz)
+                .into_par_iter()
+                .flat_map_iter(|k| (0..ny).flat_map(move |j| (0..nx).map(move |i| (i, j, k))))
+                .filter_map(|(i, j, k)| {
+                    let mut at = Vec3::new(i as f32, j as f32, k as f32);
+                    at[a] -= 0.5;
+                    let p = domain.world_of(at);
+                    let level = obstacle.value(p);
+                    (level >= 0.0).then(|| SolidFace {
+                        index: domain.index(i, j, k),
+                        at,
+                        level,
+                        normal: obstacle.gradient(p).normalize_or_zero(),
+                    })
+                })
+                .collect()
+        });
         Ok(Self {
             options,
             level,
-            normal,
+            faces,
         })
     }
 
@@ -185,41 +193,56 @@ impl Boundary {
         self.level.as_slice().iter().map(|&o| o >= 0.0).collect()
     }
 
-    /// Eqs 6.6/6.7 on every cell with `O ≥ 0` and `u·∇O > 0`.
+    /// Eqs 6.6/6.7 on every face with `O ≥ 0` and `u·∇O > 0`, `u` the
+    /// velocity's point query at the face before the rule.
     ///
     /// # Panics
-    /// If `vel` is on another domain.
-    pub fn apply(&self, vel: &mut VectorGrid) {
+    /// If `vel` is on another domain or in a closed box.
+    pub fn apply(&self, vel: &mut FaceGrid) {
         assert_eq!(
             vel.domain(),
             self.level.domain(),
             "boundary: velocity on another domain"
         );
+        assert_eq!(
+            vel.kind(),
+            crate::grid::BoxKind::Periodic,
+            "boundary: closed box"
+        );
         let k = 1.0 + self.options.retained();
-        vel.as_vec3_mut()
-            .par_chunks_mut(4096)
-            .zip(self.normal.par_chunks(4096))
-            .for_each(|(u, n)| {
-                for (u, &n) in u.iter_mut().zip(n) {
-                    let un = u.dot(n);
+        let before = vel.clone();
+        for (a, faces) in self.faces.iter().enumerate() {
+            let updated: Vec<f32> = faces
+                .par_iter()
+                .map(|f| {
+                    let u = before.sample_grid_coords(f.at);
+                    let un = u.dot(f.normal);
+                    let ua = before.slice(a)[f.index];
                     if un > 0.0 {
-                        *u -= k * un * n;
+                        ua - k * un * f.normal[a]
+                    } else {
+                        ua
                     }
-                }
-            });
+                })
+                .collect();
+            let comp = vel.slice_mut(a);
+            for (f, v) in faces.iter().zip(updated) {
+                comp[f.index] = v;
+            }
+        }
     }
 
-    /// Inward normal velocity `max(u·n, 0)` over the rim, the cells with
-    /// `0 ≤ O < Δx` (inside an obstacle, within one cell of its surface).
-    pub fn rim_inward(&self, vel: &VectorGrid) -> RmsMax {
+    /// Inward normal velocity `max(u·n, 0)` over the rim, the faces with
+    /// `0 ≤ O < Δx` (inside an obstacle, within one cell of its surface), `u`
+    /// the velocity's point query at the face.
+    pub fn rim_inward(&self, vel: &FaceGrid) -> RmsMax {
         let dx = self.level.domain().cell;
         let v: Vec<f32> = self
-            .level
-            .as_slice()
+            .faces
             .par_iter()
-            .zip(vel.as_vec3().par_iter().zip(self.normal.par_iter()))
-            .filter(|(&o, _)| (0.0..dx).contains(&o))
-            .map(|(_, (u, n))| u.dot(*n).max(0.0))
+            .flat_map_iter(|faces| faces.iter())
+            .filter(|f| f.level < dx)
+            .map(|f| vel.sample_grid_coords(f.at).dot(f.normal).max(0.0))
             .collect();
         rms_max(&v)
     }
@@ -253,13 +276,15 @@ impl Boundary {
     }
 
     /// Every leak measure at once, for `metrics.csv` and tests.
-    pub fn leak(&self, vel: &VectorGrid, densities: &[&ScalarGrid]) -> Leak {
+    pub fn leak(&self, vel: &FaceGrid, densities: &[&ScalarGrid]) -> Leak {
         let inside: f64 = densities.iter().map(|r| self.mass_inside(r)).sum();
         let total: f64 = densities.iter().map(|r| r.total()).sum();
+        let mut div = ScalarGrid::zeros(*vel.domain());
+        vel.divergence(&mut div);
         Leak {
-            div_fluid: self.over_fluid(&crate::metrics::divergence(vel)),
+            div_fluid: self.over_fluid(&div),
             rim_inward: self.rim_inward(vel),
-            u_rms: vel.rms_norm(),
+            u_rms: vel.rms(),
             mass_inside: inside,
             mass_fraction: if total > 0.0 { inside / total } else { 0.0 },
         }
@@ -269,7 +294,7 @@ impl Boundary {
 /// How well obstacles hold after a step.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Leak {
-    /// Central-difference divergence over the fluid cells (`O < 0`).
+    /// Compact divergence over the fluid cells (`O < 0`).
     pub div_fluid: RmsMax,
     /// Inward normal velocity over the rim (`0 ≤ O < Δx`).
     pub rim_inward: RmsMax,
@@ -312,12 +337,14 @@ mod tests {
         .unwrap()
     }
 
-    fn random_velocity(d: Domain) -> VectorGrid {
+    fn random_velocity(d: Domain) -> FaceGrid {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
-        let mut v = VectorGrid::zeros(d);
-        for x in v.as_slice_mut() {
-            *x = rng.random_range(-1.0..1.0);
+        let mut v = FaceGrid::zeros(d, crate::grid::BoxKind::Periodic);
+        for a in 0..3 {
+            for x in v.slice_mut(a) {
+                *x = rng.random_range(-1.0..1.0);
+            }
         }
         v
     }
@@ -347,29 +374,37 @@ mod tests {
             let mut after = before.clone();
             b.apply(&mut after);
             let mut touched = 0;
-            for (((u0, u1), &n), &o) in before
-                .as_vec3()
-                .iter()
-                .zip(after.as_vec3())
-                .zip(&b.normal)
-                .zip(b.level().as_slice())
-            {
-                let (a, z) = (u0.dot(n), u1.dot(n));
-                if o >= 0.0 && a > 0.0 && n != Vec3::ZERO {
-                    touched += 1;
-                    // Eq 6.7: the inward normal component becomes −α times itself …
-                    assert!((z + kept * a).abs() <= 1e-6, "{rule:?}: {a} → {z}");
-                    // … and the tangential part is unchanged.
-                    let (t0, t1) = (*u0 - a * n, *u1 - z * n);
-                    assert!((t0 - t1).length() <= 1e-6);
-                    // Nothing flows inward (α = 0 leaves round-off either way).
-                    assert!(z <= 1e-6);
-                } else {
-                    assert_eq!(u0, u1, "{rule:?}: cell outside the mask changed");
+            for (a, faces) in b.faces.iter().enumerate() {
+                let solid: std::collections::HashSet<usize> =
+                    faces.iter().map(|f| f.index).collect();
+                for f in faces {
+                    let (u0, n) = (before.sample_grid_coords(f.at), f.normal);
+                    let (un, old, new) =
+                        (u0.dot(n), before.slice(a)[f.index], after.slice(a)[f.index]);
+                    if un > 0.0 {
+                        touched += 1;
+                        // Eq 6.7 on the face's own component: the inward
+                        // normal part of u becomes −α times itself.
+                        let want = old - (1.0 + kept) * un * n[a];
+                        assert!((new - want).abs() <= 1e-6, "{rule:?}: {new} vs {want}");
+                    } else {
+                        assert_eq!(old, new, "{rule:?}: outflowing face changed");
+                    }
+                }
+                for (m, (x, y)) in before.slice(a).iter().zip(after.slice(a)).enumerate() {
+                    if !solid.contains(&m) {
+                        assert_eq!(x, y, "{rule:?}: fluid face changed");
+                    }
                 }
             }
-            assert!(touched > 100, "only {touched} cells tested");
-            assert!(b.rim_inward(&after).max <= 1e-6);
+            assert!(touched > 100, "only {touched} faces tested");
+            // On a face whose own axis is the normal, the face's component
+            // is the whole normal velocity: it now points outward (≤ 0).
+            for (a, faces) in b.faces.iter().enumerate() {
+                for f in faces.iter().filter(|f| f.normal[a].abs() > 0.999) {
+                    assert!(after.slice(a)[f.index] * f.normal[a] <= 1e-6);
+                }
+            }
             assert!(b.rim_inward(&before).max > 0.1);
         }
     }

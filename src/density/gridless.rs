@@ -38,12 +38,12 @@ use super::{wrap_grid, Buffer, StepInput};
 use crate::advection::{departure_point, Backtrace};
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
-use crate::grid::{ScalarGrid, VectorGrid};
+use crate::grid::{FaceGrid, ScalarGrid};
 
 /// One stored step of the velocity history.
 #[derive(Clone)]
 struct PastStep {
-    velocity: Arc<VectorGrid>,
+    velocity: Arc<FaceGrid>,
     dt: f32,
     backtrace: Backtrace,
 }
@@ -87,7 +87,7 @@ impl GridlessField {
     ///
     /// # Panics
     /// If `velocity` is on another domain.
-    pub fn push(&mut self, velocity: Arc<VectorGrid>, dt: f32, backtrace: Backtrace) {
+    pub fn push(&mut self, velocity: Arc<FaceGrid>, dt: f32, backtrace: Backtrace) {
         assert_eq!(
             velocity.domain(),
             &self.domain,
@@ -106,7 +106,7 @@ impl GridlessField {
     }
 
     /// The stored velocity grids, oldest first.
-    pub fn velocities(&self) -> impl Iterator<Item = &Arc<VectorGrid>> {
+    pub fn velocities(&self) -> impl Iterator<Item = &Arc<FaceGrid>> {
         self.steps.iter().map(|s| &s.velocity)
     }
 }
@@ -219,6 +219,6 @@ impl Gridless {
 
     pub(super) fn buffers(&self, out: &mut Vec<Buffer>) {
         out.push(Buffer::of_scalar(&self.centres));
-        out.extend(self.field.velocities().map(|u| Buffer::of_vector(u)));
+        out.extend(self.field.velocities().map(|u| Buffer::of_faces(u)));
     }
 }

@@ -1,6 +1,7 @@
 //! Where a gas's density lives: gridded, gridless or SELMA (§6.2, ch. 7, ch. 8).
 //!
-//! The velocity is always a grid (the FFT projection needs one); the density
+//! The velocity is always a staggered grid ([`crate::grid::FaceGrid`]: the
+//! pressure solve needs one); the density
 //! of each gas can be held three ways, chosen by [`DensityMode`]:
 //!
 //! - [`gridded`] — the notes' FELT script of §6.1.1: advect, `cachewrite`,
@@ -41,7 +42,7 @@ use crate::advection::Backtrace;
 use crate::domain::Domain;
 use crate::error::InputError;
 use crate::field::{Scalar, VectorField};
-use crate::grid::{ScalarGrid, VectorGrid};
+use crate::grid::{FaceGrid, ScalarGrid, VectorGrid};
 
 pub use gridded::Gridded;
 pub use gridless::{Gridless, GridlessField};
@@ -194,10 +195,10 @@ fn gcd(a: usize, b: usize) -> usize {
 /// Everything one step of a density needs; shared by all gases of the step.
 pub struct StepInput<'a> {
     /// The velocity the step advects with (the state before the step).
-    pub velocity: &'a VectorGrid,
+    pub velocity: &'a FaceGrid,
     /// A shared copy of that velocity for models that keep the history
     /// (gridless); `None` when no gas needs one.
-    pub snapshot: Option<&'a Arc<VectorGrid>>,
+    pub snapshot: Option<&'a Arc<FaceGrid>>,
     /// Time step Δt.
     pub dt: f32,
     /// Backtrace scheme (the same as the velocity's).
@@ -230,6 +231,15 @@ impl Buffer {
         Self {
             addr: s.as_ptr() as usize,
             bytes: std::mem::size_of_val(s),
+        }
+    }
+
+    /// The three component arrays of a staggered velocity, as one buffer
+    /// named by the first component's address.
+    pub fn of_faces(g: &FaceGrid) -> Self {
+        Self {
+            addr: g.slice(0).as_ptr() as usize,
+            bytes: (0..3).map(|a| std::mem::size_of_val(g.slice(a))).sum(),
         }
     }
 }

@@ -441,9 +441,10 @@ fn reset_lattice(lattice: &mut VectorGrid) {
 mod tests {
     use super::*;
     use crate::advection::{Backtrace, Departures};
+    use crate::grid::{BoxKind, FaceGrid};
 
     /// A shear-and-swirl velocity on a 16³ box of edge 8.
-    fn velocity() -> VectorGrid {
+    fn velocity() -> FaceGrid {
         struct Swirl;
         impl crate::field::VectorField for Swirl {
             fn eval(&self, p: Vec3) -> Vec3 {
@@ -451,7 +452,7 @@ mod tests {
                 Vec3::new((k * p.y).sin(), (k * p.z).cos(), 0.5 * (k * p.x).sin())
             }
         }
-        VectorGrid::from_field(Domain::cube(16, 8.0).unwrap(), &Swirl)
+        FaceGrid::from_field(Domain::cube(16, 8.0).unwrap(), BoxKind::Periodic, &Swirl)
     }
 
     #[test]

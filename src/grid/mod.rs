@@ -11,6 +11,7 @@ mod samples;
 mod scalar;
 mod vector;
 
+pub use face::{BoxKind, FaceGrid};
 pub use interpolate::{Stencil, Wrap};
 pub use samples::Grid;
 pub use scalar::ScalarGrid;

@@ -40,7 +40,7 @@ use crate::density::{total_bytes, Buffer, GridlessField, MapField, Selma, StepIn
 use crate::domain::Domain;
 use crate::error::{check_non_negative, check_positive, InputError};
 use crate::field::{memo, ops, Scalar, ScalarField};
-use crate::grid::{ScalarGrid, VectorGrid};
+use crate::grid::{FaceGrid, ScalarGrid};
 use crate::scenario::hot_cold::HotColdConfig;
 use crate::scenario::{Scenario, SolverConfig};
 
@@ -159,7 +159,7 @@ pub struct FlowHistory {
     /// Backtrace of every frame (the simulation's).
     pub backtrace: Backtrace,
     /// Velocity at the start of each frame, oldest first.
-    pub velocities: Vec<Arc<VectorGrid>>,
+    pub velocities: Vec<Arc<FaceGrid>>,
 }
 
 impl FlowHistory {
@@ -385,7 +385,7 @@ impl AdvectedWall {
             chain.push(Arc::clone(u), flow.dt, flow.backtrace);
         }
         this.buffers
-            .extend(chain.velocities().map(|u| Buffer::of_vector(u)));
+            .extend(chain.velocities().map(|u| Buffer::of_faces(u)));
         let map = memo::memo(Arc::new(MapField(chain)));
         this.rows = this
             .rows

@@ -6,24 +6,24 @@ use glam::Vec3;
 use smokelab::domain::Domain;
 use smokelab::field::VectorField;
 use smokelab::fit::{observed_order, ObservedOrder};
-use smokelab::grid::VectorGrid;
-use smokelab::projection::Projection;
+use smokelab::grid::{BoxKind, FaceGrid};
+use smokelab::pressure::PressureSolver;
 
 /// The Taylor–Green vortex `u = A sin x cos y, v = −A cos x sin y, w = 0`
-/// sampled at the cell centres of `domain` (a `2π`-periodic box solves the
+/// sampled on the faces of `domain` (a `2π`-periodic box solves the
 /// Navier–Stokes equations with amplitude `A e^{−2νt}`).
-pub fn taylor_green(domain: Domain, amplitude: f32) -> VectorGrid {
+pub fn taylor_green(domain: Domain, amplitude: f32) -> FaceGrid {
     struct TaylorGreen(f32);
     impl VectorField for TaylorGreen {
         fn eval(&self, p: Vec3) -> Vec3 {
             self.0 * Vec3::new(p.x.sin() * p.y.cos(), -p.x.cos() * p.y.sin(), 0.0)
         }
     }
-    VectorGrid::from_field(domain, &TaylorGreen(amplitude))
+    FaceGrid::from_field(domain, BoxKind::Periodic, &TaylorGreen(amplitude))
 }
 
-/// A swirling velocity, projected divergence-free on `domain`.
-pub fn swirl(domain: Domain) -> VectorGrid {
+/// A swirling velocity on the faces of `domain`, projected divergence-free.
+pub fn swirl(domain: Domain) -> FaceGrid {
     struct Swirl;
     impl VectorField for Swirl {
         fn eval(&self, p: Vec3) -> Vec3 {
@@ -34,9 +34,45 @@ pub fn swirl(domain: Domain) -> VectorGrid {
             )
         }
     }
-    let mut v = VectorGrid::from_field(domain, &Swirl);
-    Projection::new(domain).project(&mut v, 0.0, 1.0);
+    let mut v = FaceGrid::from_field(domain, BoxKind::Periodic, &Swirl);
+    PressureSolver::new(domain, BoxKind::Periodic).project(&mut v);
     v
+}
+
+/// `max_a max_f |a_a[f] − b_a[f]|` of two staggered fields on one grid.
+pub fn max_face_diff(a: &FaceGrid, b: &FaceGrid) -> f32 {
+    (0..3)
+        .flat_map(|c| {
+            a.slice(c)
+                .iter()
+                .zip(b.slice(c))
+                .map(|(x, y)| (x - y).abs())
+        })
+        .fold(0.0, f32::max)
+}
+
+/// Hot/cold at `res`³ with `density` held as asked, default otherwise,
+/// after `frames` steps.
+pub fn hot_cold_after(
+    res: usize,
+    frames: usize,
+    density: smokelab::density::DensityMode,
+) -> smokelab::simulation::Simulation {
+    use smokelab::scenario::{hot_cold::HotColdConfig, Scenario, SolverConfig};
+    let config = HotColdConfig {
+        solver: SolverConfig {
+            res,
+            frames,
+            density,
+            ..SolverConfig::default()
+        },
+        ..Default::default()
+    };
+    let mut sim = config.build().expect("valid hot/cold config");
+    for _ in 0..frames {
+        sim.step();
+    }
+    sim
 }
 
 /// Fit the observed order of `errors` against `h`, print the table under
