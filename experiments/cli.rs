@@ -17,6 +17,7 @@ use smokelab::advection::{Backtrace, Limiter, Scheme};
 use smokelab::boundary::BoundaryRule;
 use smokelab::density::DensityMode;
 use smokelab::error::InputError;
+use smokelab::grid::BoxKind;
 use smokelab::io;
 use smokelab::render::camera::parse_image_size;
 use smokelab::scenario::hot_cold::HotColdConfig;
@@ -111,6 +112,10 @@ pub struct SolverFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub size: Option<f32>,
+    /// The box's faces: periodic, or closed (walls with no normal flow; SL and gridded only).
+    #[arg(long = "box", value_enum)]
+    #[serde(rename = "box", skip_serializing_if = "Option::is_none")]
+    pub box_kind: Option<BoxKind>,
     /// Number of time steps (frames).
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -31,7 +31,7 @@ use crate::frames::{FrameRecord, FrameRender};
 use crate::table::{field_names, Log};
 use smokelab::density::probe::{self, DensityMeasures, DensityProbe};
 use smokelab::density::DensityMode;
-use smokelab::grid::ScalarGrid;
+use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::io::vdb::{write_vdb, VdbOptions, VolumeGeometry};
 use smokelab::io::vtk::PvdCollection;
 use smokelab::io::{self, manifest::Manifest, preview};
@@ -94,9 +94,9 @@ pub struct GridRecord {
     pub cell: f32,
     /// Cells `[nx, ny, nz]`; `.npy` arrays are `(nz, ny, nx)`.
     pub dims: [usize; 3],
-    /// Where the samples sit: velocity and densities at the cell centres.
+    /// Where the samples sit: velocity on the faces, densities at the cell centres.
     pub layout: &'static str,
-    /// The boundary of the box.
+    /// The boundary of the box: `periodic` or `closed`.
     pub boundary: &'static str,
 }
 
@@ -308,7 +308,7 @@ pub fn run_with<C: Serialize>(
             cell: domain.cell,
             dims: domain.dims,
             layout: "MAC: u, v, w on the x-, y-, z-faces; densities at cell centres",
-            boundary: "periodic",
+            boundary: sim.velocity.kind().name(),
         },
         wall_seconds: 0.0,
         saved_frames: vec![],
@@ -370,7 +370,8 @@ pub fn run_with<C: Serialize>(
                 sim.gases.iter().map(|g| probe.measure(&g.model)).collect()
             })
         });
-        let ke_top_octave = if measuring {
+        // The spectrum is periodic; in a closed box the share is not defined.
+        let ke_top_octave = if measuring && sim.velocity.kind() == BoxKind::Periodic {
             timed(&mut times.metrics, || {
                 metrics::top_octave_share(&mut spectrum, &sim.velocity)
             })

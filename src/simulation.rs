@@ -143,6 +143,38 @@ impl Simulation {
         }
     }
 
+    /// The same simulation at rest in a box of `kind`: closed walls hold the
+    /// normal velocity at zero, the pressure solve uses cosine transforms,
+    /// and gridded densities are read clamped to the box (no wrap).
+    ///
+    /// # Panics
+    /// For a closed box with QUICK advection or a gridless or SELMA gas
+    /// (their lattices and walks are periodic; configurations refuse these
+    /// with an error first), or with obstacles.
+    pub fn with_box(mut self, kind: BoxKind) -> Self {
+        let d = *self.domain();
+        if kind == BoxKind::Closed {
+            assert!(
+                matches!(self.advector, Advector::SemiLagrangian { .. }),
+                "closed box: QUICK is periodic"
+            );
+            assert!(
+                self.boundary.is_none(),
+                "closed box: obstacles are periodic"
+            );
+        }
+        self.velocity = FaceGrid::zeros(d, kind);
+        self.velocity_scratch = FaceGrid::zeros(d, kind);
+        self.pressure = PressureSolver::new(d, kind);
+        for gas in &mut self.gases {
+            match &mut gas.model {
+                DensityModel::Gridded(g) => g.set_wrap(kind.wrap()),
+                _ => assert_eq!(kind, BoxKind::Periodic, "closed box: {} gas", gas.name),
+            }
+        }
+        self
+    }
+
     /// The same simulation advecting with `options` (scheme, QUICK sub-steps, limiter).
     pub fn with_advection(mut self, options: &AdvectionOptions) -> Self {
         self.advector = Advector::new(*self.domain(), options, self.params.backtrace);

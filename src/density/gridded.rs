@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use super::Buffer;
 use crate::domain::Domain;
 use crate::field::Scalar;
-use crate::grid::ScalarGrid;
+use crate::grid::{ScalarGrid, Wrap};
 
 /// A density grid and its advection scratch.
 #[derive(Clone)]
@@ -38,6 +38,13 @@ impl Gridded {
             density,
             scratch: ScalarGrid::zeros(domain),
         }
+    }
+
+    /// How the density is read outside the box (periodic wrap, or clamped
+    /// in a closed box).
+    pub fn set_wrap(&mut self, wrap: Wrap) {
+        self.density.set_wrap(wrap);
+        self.scratch.set_wrap(wrap);
     }
 
     /// The density and the target its advection `ρ(x_d)` is written to.

@@ -46,6 +46,7 @@ use crate::field::VectorField;
 
 /// Boundary conditions of the box the velocity lives in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum BoxKind {
     /// The box tiles space; the pressure solve uses FFTs.

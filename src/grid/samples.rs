@@ -32,6 +32,11 @@ impl<D: Dimension> Grid<D> {
         }
     }
 
+    /// Change the out-of-range rule in place.
+    pub fn set_wrap(&mut self, wrap: Wrap) {
+        self.wrap = wrap;
+    }
+
     /// The same grid with a different out-of-range rule.
     pub fn with_wrap(mut self, wrap: Wrap) -> Self {
         self.wrap = wrap;

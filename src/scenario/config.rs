@@ -19,6 +19,7 @@ use crate::advection::{AdvectionOptions, Backtrace, Limiter, QuickOptions, Schem
 use crate::density::{DensityMode, DensityOptions, DEFAULT_SELMA_REMAP};
 use crate::domain::{Domain, MIN_CELLS};
 use crate::error::{check_non_negative, check_positive, InputError};
+use crate::grid::BoxKind;
 use crate::simulation::{Gas, Simulation, StepParams};
 
 /// Parameters of the solver, shared by every scenario (flattened into each
@@ -29,6 +30,10 @@ pub struct SolverConfig {
     pub res: usize,
     /// Edge length L of the cubic box, world units.
     pub size: f32,
+    /// The box's faces: `periodic` (the notes' FFT box) or `closed` (six
+    /// walls with no normal flow; SL advection and gridded densities).
+    #[serde(rename = "box")]
+    pub box_kind: BoxKind,
     /// Number of time steps (one step per frame).
     pub frames: usize,
     /// Time step Δt.
@@ -74,6 +79,7 @@ impl Default for SolverConfig {
         Self {
             res: 50,
             size: 10.0,
+            box_kind: BoxKind::Periodic,
             frames: 150,
             dt: 0.05,
             nu: 0.0,
@@ -165,6 +171,20 @@ impl SolverConfig {
             if self.density != DensityMode::Selma {
                 return Err(InputError::new(format!(
                     "map_res {r} is only used by --density selma (density is {})",
+                    self.density
+                )));
+            }
+        }
+        if self.box_kind == BoxKind::Closed {
+            if self.advection != Scheme::Sl {
+                return Err(InputError::new(format!(
+                    "box closed needs advection sl (QUICK's lattice is periodic; advection is {})",
+                    format!("{:?}", self.advection).to_lowercase()
+                )));
+            }
+            if self.density != DensityMode::Gridded {
+                return Err(InputError::new(format!(
+                    "box closed needs density gridded (the {} walk is periodic)",
                     self.density
                 )));
             }

@@ -155,6 +155,8 @@ impl Scenario for HotColdConfig {
             Gas::with_density("cold", domain, &source(self.cold_center()), -1.0, &density),
         ];
         check_sources(&gases, s)?;
-        Ok(Simulation::new(domain, s.step_params(), gases).with_advection(&s.advection_options()))
+        Ok(Simulation::new(domain, s.step_params(), gases)
+            .with_advection(&s.advection_options())
+            .with_box(s.box_kind))
     }
 }

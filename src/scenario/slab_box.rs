@@ -142,6 +142,12 @@ impl Scenario for SlabBoxConfig {
     fn validate(&self) -> Result<(), InputError> {
         let s = &self.solver;
         s.validate()?;
+        if s.box_kind != crate::grid::BoxKind::Periodic {
+            return Err(InputError::new(format!(
+                "box {} is not available for slab-box: its walls are obstacles in a periodic box (box periodic)",
+                s.box_kind
+            )));
+        }
         if s.density != DensityMode::Gridded {
             return Err(InputError::new(format!(
                 "density {} is not available for slab-box: its gas is held on the grid (density gridded); obstacles for gridless and SELMA tracers are not built yet",
