@@ -704,3 +704,46 @@ fn time_projection() {
         }
     }
 }
+
+/// The sampler's shortcuts are the point query itself: at every cell centre
+/// `at_cell` and at every face `at_face` agree with the trilinear `at`
+/// (and with a plain per-component [`smokelab::grid::Stencil`] sample) to
+/// f32 round-off, periodic and closed, on odd and even grids.
+#[test]
+fn sampler_shortcuts_equal_the_point_query() {
+    for (d, kind, seed) in cases() {
+        let u = random_faces(d, kind, seed + 900);
+        let s = u.sampler();
+        let [nx, ny, nz] = d.dims;
+        let mut worst = 0.0f32;
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let g = Vec3::new(i as f32, j as f32, k as f32);
+                    worst = worst.max((s.at_cell([i, j, k]) - s.at(g)).abs().max_element());
+                    // The per-component stencil, independently of `at`.
+                    for a in 0..3 {
+                        let mut ga = g;
+                        ga[a] += 0.5;
+                        let st = smokelab::grid::Stencil::new(ga, u.face_dims(a), kind.wrap());
+                        worst = worst.max((st.apply(u.slice(a)) - s.at(g)[a]).abs());
+                    }
+                }
+            }
+        }
+        for a in 0..3 {
+            let [mx, my, mz] = u.face_dims(a);
+            for k in 0..mz {
+                for j in 0..my {
+                    for i in 0..mx {
+                        let mut g = Vec3::new(i as f32, j as f32, k as f32);
+                        g[a] -= 0.5;
+                        let diff = s.at_face(a, [i, j, k]) - s.at(g);
+                        worst = worst.max(diff.abs().max_element());
+                    }
+                }
+            }
+        }
+        assert!(worst <= 1e-6, "{kind} {:?}: {worst}", d.dims);
+    }
+}

@@ -6,7 +6,10 @@
 //! traced backwards through the velocity's point query (each component
 //! trilinear on its own lattice, [`FaceGrid::sample_grid_coords`]) with the
 //! chosen [`Backtrace`], and the advected quantity is interpolated trilinearly
-//! there: `q_new(x) = q(x_d)`. Work is done in continuous cell-centre grid
+//! there: `q_new(x) = q(x_d)`. The first velocity sample of every backtrace,
+//! at the cell centre or face itself, is the exact average of the
+//! neighbouring faces ([`FaceSampler::at_cell`], [`FaceSampler::at_face`]),
+//! not an interpolation. Work is done in continuous cell-centre grid
 //! coordinates (cell centres at integers, component `a`'s faces at
 //! `(i, j, k) − ½e_a`): a velocity `u` moves a point by `u Δt / Δx` cells.
 //!
@@ -24,6 +27,7 @@ use rayon::prelude::*;
 
 use super::Backtrace;
 use crate::domain::Domain;
+use crate::grid::face::FaceSampler;
 use crate::grid::{FaceGrid, ScalarGrid, Stencil, Wrap};
 
 /// The departure point of every cell centre for one step, in grid coordinates.
@@ -69,7 +73,7 @@ impl Departures {
         );
         let dt_cells = dt / self.domain.cell;
         let [nx, ny, _] = self.domain.dims;
-        let sampler = VelocitySampler::new(vel);
+        let sampler = vel.sampler();
         self.points
             .par_chunks_mut(nx * ny)
             .enumerate()
@@ -77,7 +81,8 @@ impl Departures {
                 for j in 0..ny {
                     for i in 0..nx {
                         let c = Vec3::new(i as f32, j as f32, k as f32);
-                        out[j * nx + i] = departure(sampler, c, dt_cells, backtrace);
+                        let u0 = sampler.at_cell([i, j, k]);
+                        out[j * nx + i] = departure(sampler, c, u0, dt_cells, backtrace);
                     }
                 }
             });
@@ -93,57 +98,14 @@ impl Departures {
 /// gridded path.
 #[inline]
 pub fn departure_point(vel: &FaceGrid, g: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
-    departure(VelocitySampler::new(vel), g, dt_cells, backtrace)
+    let sampler = vel.sampler();
+    departure(sampler, g, sampler.at(g), dt_cells, backtrace)
 }
 
-/// The staggered velocity's point query with the component slices and
-/// layouts hoisted out of the per-point loop.
-#[derive(Clone, Copy)]
-struct VelocitySampler<'a> {
-    data: [&'a [f32]; 3],
-    dims: [[usize; 3]; 3],
-    wrap: Wrap,
-}
-
-impl<'a> VelocitySampler<'a> {
-    fn new(vel: &'a FaceGrid) -> Self {
-        Self {
-            data: [vel.slice(0), vel.slice(1), vel.slice(2)],
-            dims: std::array::from_fn(|a| vel.face_dims(a)),
-            wrap: vel.kind().wrap(),
-        }
-    }
-
-    /// Component `a` at cell-centre grid coordinates `g` (its lattice is
-    /// shifted by `−½e_a`).
-    #[inline(always)]
-    fn component(&self, a: usize, g: Vec3) -> f32 {
-        self.component_of(a, self.data[a], g)
-    }
-
-    /// `data`, laid out like component `a`'s lattice, interpolated at
-    /// cell-centre grid coordinates `g`.
-    #[inline(always)]
-    fn component_of(&self, a: usize, data: &[f32], mut g: Vec3) -> f32 {
-        g[a] += 0.5;
-        Stencil::new(g, self.dims[a], self.wrap).apply(data)
-    }
-
-    #[inline(always)]
-    fn at(&self, g: Vec3) -> Vec3 {
-        Vec3::new(
-            self.component(0, g),
-            self.component(1, g),
-            self.component(2, g),
-        )
-    }
-}
-
-/// Departure point, in grid coordinates, of the point `c` after
-/// `dt_cells = Δt/Δx`.
+/// Departure point, in grid coordinates, of the point `c` whose velocity is
+/// `u0`, after `dt_cells = Δt/Δx`.
 #[inline(always)]
-fn departure(vel: VelocitySampler, c: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
-    let u0 = vel.at(c);
+fn departure(vel: FaceSampler, c: Vec3, u0: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
     match backtrace {
         Backtrace::Euler => c - dt_cells * u0,
         Backtrace::Rk2 => c - dt_cells * vel.at(c - 0.5 * dt_cells * u0),
@@ -217,7 +179,7 @@ pub fn advect_faces(
         assert_eq!(g.domain(), vel.domain(), "advect_faces: another domain");
         assert_eq!(g.kind(), vel.kind(), "advect_faces: another box kind");
     }
-    let sampler = VelocitySampler::new(vel);
+    let sampler = vel.sampler();
     let dt_cells = dt / vel.domain().cell;
     for a in 0..3 {
         let dims = dst.face_dims(a);
@@ -230,7 +192,8 @@ pub fn advect_faces(
                     for i in 0..dims[0] {
                         let mut c = Vec3::new(i as f32, j as f32, k as f32);
                         c[a] -= 0.5;
-                        let g = departure(sampler, c, dt_cells, backtrace);
+                        let u0 = sampler.at_face(a, [i, j, k]);
+                        let g = departure(sampler, c, u0, dt_cells, backtrace);
                         out[j * dims[0] + i] = sampler.component_of(a, data, g);
                     }
                 }
@@ -277,7 +240,7 @@ pub fn advect_fused(
     let [nx, ny, _] = d.dims;
     let slab = nx * ny;
     let dt_cells = dt / d.cell;
-    let sampler = VelocitySampler::new(vel);
+    let sampler = vel.sampler();
     let src: Vec<(&[f32], Wrap)> = srcs.iter().map(|g| (g.as_slice(), g.wrap())).collect();
     // Split every target into z-slabs and regroup them per slab.
     let mut slabs: Vec<Vec<&mut [f32]>> = (0..d.dims[2])
@@ -301,7 +264,8 @@ pub fn advect_fused(
                 stencils.clear();
                 for i in 0..nx {
                     let c = Vec3::new(i as f32, j as f32, k as f32);
-                    let g = departure(sampler, c, dt_cells, backtrace);
+                    let u0 = sampler.at_cell([i, j, k]);
+                    let g = departure(sampler, c, u0, dt_cells, backtrace);
                     points.push(g);
                     stencils.push(Stencil::new(g, d.dims, wrap));
                 }
