@@ -6,6 +6,7 @@
 
 pub mod cloud;
 pub mod cut;
+pub mod mesh;
 pub mod shape;
 pub mod warp;
 
