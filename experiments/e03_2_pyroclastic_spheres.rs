@@ -8,7 +8,7 @@
 //! of radius 0.5. The absolute value cuts sharp canyons between rounded
 //! peaks.
 //!
-//! Run: `smokelab experiment 03-2` (about 10 s on 2 cores: 384² renders,
+//! Run: `smokelab experiment 03-2` (about 2 s on 2 cores: 384² renders,
 //! march step half a cell of a 96³ box; `--full` 768² and 160³, `--smoke`
 //! 96² and 24³).
 //!
@@ -39,7 +39,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "03-2",
     reproduces: "fig 3.2",
     title: "pyroclastic spheres: closed-form displacement by |Perlin|",
-    cost: "~10 s",
+    cost: "~2 s",
     run,
 };
 

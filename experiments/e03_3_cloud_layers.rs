@@ -8,7 +8,7 @@
 //! before the next. Shown as geometry: a hard-surfaced render of `mask(ℓ)`
 //! and the surface-net mesh of each panel.
 //!
-//! Run: `smokelab experiment 03-3` (about 30 s on 2 cores: 64³ base grid,
+//! Run: `smokelab experiment 03-3` (about 2 s on 2 cores: 64³ base grid,
 //! layers cached on 64³, 96³, 128³, 256² panels; `--full` 128³ and 512²,
 //! `--smoke` 16³ and 64²).
 //!
@@ -31,7 +31,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "03-3",
     reproduces: "fig 3.3",
     title: "cumulo: 0, 1, 2, 3 layers of pyroclastic displacement (geometry)",
-    cost: "~30 s",
+    cost: "~2 s",
     run,
 };
 

@@ -9,7 +9,7 @@
 //!
 //! Run: `smokelab experiment 03-4` (geometry: hard-surfaced renders and
 //! meshes) or `smokelab experiment 03-5` (soft volume renders), each about
-//! 40 s on 2 cores (64³ base grid, layers cached on 64³, 96³, 128³, 256²
+//! 5 s on 2 cores (64³ base grid, layers cached on 64³, 96³, 128³, 256²
 //! panels; `--full` 128³ and 512², `--smoke` 16³ and 64²).
 //!
 //! Writes `results/03-4/` (`billow.png`, `billow_<b>.obj`) or
@@ -32,7 +32,7 @@ pub const GEOMETRY: Experiment = Experiment {
     folder: "03-4",
     reproduces: "fig 3.4",
     title: "billow 0.33, 0.5, 0.67, 1, 2 clearing the canyons (geometry)",
-    cost: "~40 s",
+    cost: "~5 s",
     run: run_geometry,
 };
 
@@ -42,7 +42,7 @@ pub const RENDERS: Experiment = Experiment {
     folder: "03-5",
     reproduces: "fig 3.5",
     title: "billow 0.33, 0.5, 0.67, 1, 2 clearing the canyons (volume renders)",
-    cost: "~40 s",
+    cost: "~5 s",
     run: run_renders,
 };
 

@@ -8,7 +8,7 @@
 //! render query walks back 4 steps (eq 7.4 without sources). Strong
 //! advection tears wisps from the main body.
 //!
-//! Run: `smokelab experiment 03-7` (about 40 s on 2 cores: 64³ base grid,
+//! Run: `smokelab experiment 03-7` (about 3 s on 2 cores: 64³ base grid,
 //! 256² panels; `--full` 128³ and 512², `--smoke` 16³ and 64²).
 //!
 //! Writes `results/03-7/`: `advection.png` (none, medium, strong, left to
@@ -36,7 +36,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "03-7",
     reproduces: "fig 3.7",
     title: "a modelled cloud gridlessly advected by noisy velocity: none, medium, strong",
-    cost: "~40 s",
+    cost: "~3 s",
     run,
 };
 

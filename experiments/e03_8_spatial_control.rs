@@ -7,7 +7,7 @@
 //! from 0.3 to 0.7 along y, over three billow-free layers. Beside it, the
 //! same cloud with constant amplitude for comparison.
 //!
-//! Run: `smokelab experiment 03-8` (about 20 s on 2 cores: 64³ base grid,
+//! Run: `smokelab experiment 03-8` (about 2 s on 2 cores: 64³ base grid,
 //! 320² panels; `--full` 128³ and 640², `--smoke` 16³ and 64²).
 //!
 //! Writes `results/03-8/`: `control.png` (ramped, constant), `data.csv`,
@@ -34,7 +34,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "03-8",
     reproduces: "fig 3.8",
     title: "spatial control: displacement amplitude and roughness as fields",
-    cost: "~20 s",
+    cost: "~2 s",
     run,
 };
 

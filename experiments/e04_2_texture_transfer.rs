@@ -8,7 +8,7 @@
 //! dark squares of a 12 × 6 checker in those coordinates; the object's
 //! surface-net mesh is written with the transferred coordinates as `vt`.
 //!
-//! Run: `smokelab experiment 04-2` (about 5 s on 2 cores: 64³ mesh grid,
+//! Run: `smokelab experiment 04-2` (about 2 s on 2 cores: 64³ mesh grid,
 //! 384² render; `--full` 128³ and 768², `--smoke` 20³ and 80²).
 //!
 //! Writes `results/04-2/`: `texture.png`, `object_uv.obj` (vertices,
@@ -41,7 +41,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "04-2",
     reproduces: "fig 4.2",
     title: "texture coordinates transferred from a sphere by the nacelle warp",
-    cost: "~5 s",
+    cost: "~2 s",
     run,
 };
 

@@ -9,7 +9,7 @@
 //! built (the notes found 22 for their blades). The pieces are the
 //! 26-connected components of each set's positive cells.
 //!
-//! Run: `smokelab experiment 05-1` (about 10 s on 2 cores: 64³ grid, 384²
+//! Run: `smokelab experiment 05-1` (about 6 s on 2 cores: 64³ grid, 384²
 //! renders; `--full` 160³ and 768², `--smoke` 24³ and 96²).
 //!
 //! Writes `results/05-1/`: `cut.png` (the sphere, each piece its colour, so
@@ -44,7 +44,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "05-1",
     reproduces: "fig 5.1",
     title: "a sphere cut by 5 random blades into pieces",
-    cost: "~10 s",
+    cost: "~6 s",
     run,
 };
 
