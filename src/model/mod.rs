@@ -1,6 +1,6 @@
-//! Modelling with fields (the notes' ch. 3–5): analytic shapes, clouds by
-//! layered pyroclastic displacement, the nacelle warp, and cutting with
-//! level-set knives. Everything here is built from the field algebra
+//! Modelling with fields (the notes' ch. 3–5): analytic shapes, triangle
+//! meshes in and out of level sets, clouds by layered pyroclastic
+//! displacement, the nacelle warp, and cutting with level-set knives. Everything here is built from the field algebra
 //! ([`crate::field::algebra`]) and so is resolution independent: a lattice
 //! appears only where a cache or a piece count asks for one.
 
