@@ -52,6 +52,15 @@ pub struct Experiment {
 
 /// Every experiment, in the notes' order.
 pub const ALL: &[Experiment] = &[
+    crate::e03_2_pyroclastic_spheres::EXPERIMENT,
+    crate::e03_3_cloud_layers::EXPERIMENT,
+    crate::e03_4_billow::GEOMETRY,
+    crate::e03_4_billow::RENDERS,
+    crate::e03_7_cloud_advection::EXPERIMENT,
+    crate::e03_8_spatial_control::EXPERIMENT,
+    crate::e04_1_nacelle_warp::EXPERIMENT,
+    crate::e04_2_texture_transfer::EXPERIMENT,
+    crate::e05_1_cut_sphere::EXPERIMENT,
     crate::e06_1_hot_cold_gridded::EXPERIMENT,
     crate::e06_3_hot_cold_gridless::EXPERIMENT,
     crate::e06_5_density_modes::EXPERIMENT,

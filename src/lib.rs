@@ -38,6 +38,7 @@ pub mod metrics;
 pub mod boundary;
 pub mod density;
 pub mod noise;
+pub mod model;
 pub mod render;
 pub mod simulation;
 pub mod scenario;

@@ -11,6 +11,7 @@
 //! dynamic call per batch, not per point. Fields are `Send + Sync` and shared
 //! through [`Arc`], so building a chain never copies a grid.
 
+pub mod algebra;
 pub mod memo;
 pub mod ops;
 
@@ -36,6 +37,18 @@ pub trait ScalarField: Send + Sync {
         for (o, &p) in out.iter_mut().zip(points) {
             *o = self.eval(p);
         }
+    }
+
+    /// Gradients at many points, when the field knows its own in closed form.
+    ///
+    /// Returns `false` — before doing any work, and leaving `out`
+    /// unspecified — when it does not; [`algebra::grad`] then takes central
+    /// differences.
+    ///
+    /// # Panics
+    /// If the slices differ in length (implementations that return `true`).
+    fn grad_batch(&self, _points: &[Vec3], _out: &mut [Vec3]) -> bool {
+        false
     }
 }
 
@@ -67,6 +80,9 @@ impl<F: ScalarField + ?Sized> ScalarField for Arc<F> {
     }
     fn eval_batch(&self, points: &[Vec3], out: &mut [f32]) {
         (**self).eval_batch(points, out)
+    }
+    fn grad_batch(&self, points: &[Vec3], out: &mut [Vec3]) -> bool {
+        (**self).grad_batch(points, out)
     }
 }
 

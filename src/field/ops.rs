@@ -29,6 +29,10 @@ impl ScalarField for Constant {
     fn eval_batch(&self, _: &[Vec3], out: &mut [f32]) {
         out.fill(self.0);
     }
+    fn grad_batch(&self, _: &[Vec3], out: &mut [Vec3]) -> bool {
+        out.fill(Vec3::ZERO);
+        true
+    }
 }
 
 /// A constant vector.
@@ -68,6 +72,13 @@ pub struct Sphere {
 impl ScalarField for Sphere {
     fn eval(&self, p: Vec3) -> f32 {
         self.radius * self.radius - (p - self.center).length_squared()
+    }
+    fn grad_batch(&self, points: &[Vec3], out: &mut [Vec3]) -> bool {
+        assert_eq!(points.len(), out.len(), "grad_batch: slice lengths differ");
+        for (o, &p) in out.iter_mut().zip(points) {
+            *o = -2.0 * (p - self.center);
+        }
+        true
     }
 }
 

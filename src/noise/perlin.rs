@@ -173,6 +173,13 @@ impl ScalarField for Perlin {
             *o = self.value(p);
         }
     }
+    fn grad_batch(&self, points: &[Vec3], out: &mut [Vec3]) -> bool {
+        assert_eq!(points.len(), out.len(), "grad_batch: slice lengths differ");
+        for (o, &p) in out.iter_mut().zip(points) {
+            *o = self.value_gradient(p).1;
+        }
+        true
+    }
 }
 
 /// 2D Perlin noise in the xy plane (z ignored).
