@@ -93,7 +93,7 @@ impl Default for SolverConfig {
             selma_remap: DEFAULT_SELMA_REMAP,
             sample_res: None,
             save_every: 10,
-            metrics_every: 1,
+            metrics_every: 10,
             force: false,
             seed: 0,
             threads: None,
