@@ -135,6 +135,11 @@ pub struct RunSummary {
 /// Fixed random points at which the interpolant's divergence is measured.
 pub const PROBE_POINTS: usize = 4096;
 
+/// A CFL number `max|u| Δt/Δx` beyond which a run warns (once): the
+/// semi-Lagrangian step stays stable at any CFL number, but a departure
+/// point this many cells away leaves the flow unresolved.
+pub const CFL_WARNING: f32 = 10.0;
+
 /// Refinement of the quadrature of `∫S dV` for the injected-mass budget.
 const SOURCE_REFINE: usize = 4;
 
@@ -344,6 +349,7 @@ pub fn run_with<C: Serialize>(
     let points = metrics::probe_points(&domain, PROBE_POINTS, 1);
     let mut spectrum = SpectralShare::new(domain.dims);
     let every = opts.metrics_every.max(1);
+    let mut warned_cfl = false;
     for frame in 1..=opts.frames {
         if let Err(e) = sim.try_step() {
             bail!(
@@ -371,6 +377,7 @@ pub fn run_with<C: Serialize>(
                 metrics::velocity_mirror_error(&sim.velocity),
             )
         });
+        let cfl = max_u * sim.params.dt / sim.domain().cell;
         let measuring = frame % every == 0 || frame == opts.frames;
         let measures: Option<Vec<DensityMeasures>> = measuring.then(|| {
             timed(&mut times.metrics, || {
@@ -434,7 +441,7 @@ pub fn run_with<C: Serialize>(
                 step: frame,
                 time: sim.time(),
                 max_u,
-                cfl: max_u * sim.params.dt / sim.domain().cell,
+                cfl,
                 div_rms: div.rms,
                 div_max: div.max,
                 div_interp_rms: div_interp.rms,
@@ -462,6 +469,15 @@ pub fn run_with<C: Serialize>(
         summary.final_density_bytes = density_bytes;
         if let Some(m) = measures {
             summary.final_measures = m;
+        }
+        if cfl > CFL_WARNING && !warned_cfl {
+            warned_cfl = true;
+            bar.suspend(|| {
+                eprintln!(
+                    "warning: CFL number {cfl:.3e} at step {frame} (max|u| {max_u:.3e} × dt / cell); \
+                     the flow is not resolved above {CFL_WARNING}: lower --dt or --gravity"
+                )
+            });
         }
         bar.set_message(format!("max|u| {max_u:.3}"));
         bar.inc(1);

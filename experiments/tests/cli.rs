@@ -177,6 +177,23 @@ fn small_run_writes_whole_outputs() {
     }
     let vel: ndarray::Array4<f32> = ndarray_npy::read_npy(r.join("vel_0004.npy")).unwrap();
     assert_eq!(vel.dim(), (12, 12, 12, 3));
+    // The solver's own faces; their mean over each cell is `vel`.
+    let faces: Vec<ndarray::Array3<f32>> = ["u", "v", "w"]
+        .iter()
+        .map(|c| ndarray_npy::read_npy(r.join(format!("{c}_0004.npy"))).unwrap())
+        .collect();
+    for (a, f) in faces.iter().enumerate() {
+        assert_eq!(f.dim(), (12, 12, 12));
+        for ((k, j, i), &centre) in vel.index_axis(ndarray::Axis(3), a).indexed_iter() {
+            let mut up = [k, j, i];
+            up[2 - a] = (up[2 - a] + 1) % 12;
+            let mean = 0.5 * (f[[k, j, i]] + f[up]);
+            assert!(
+                (mean - centre).abs() <= 1e-6,
+                "component {a} at ({i},{j},{k})"
+            );
+        }
+    }
     let csv = std::fs::read_to_string(r.join("metrics.csv")).unwrap();
     assert_eq!(csv.lines().count(), 5, "header + one row per step");
     let manifest: serde_json::Value =
@@ -337,4 +354,77 @@ fn a_rerun_into_a_used_folder_is_refused_unless_overwrite() {
         out.join("notes.txt").is_file(),
         "a file the run does not write was removed"
     );
+}
+
+/// `--box closed`: the normal components have one more face along their
+/// axis, the wall faces are exactly zero, and the manifest says so.
+#[test]
+fn a_closed_box_run_writes_wall_faces() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = [
+        "run",
+        "hot-cold",
+        "--box",
+        "closed",
+        "--res",
+        "12",
+        "--frames",
+        "3",
+        "--save-every",
+        "3",
+        "--out",
+        "c",
+        "--quiet",
+    ];
+    let o = smokelab(&args, dir.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let c = dir.path().join("c");
+    let read = |n: &str| -> ndarray::Array3<f32> {
+        ndarray_npy::read_npy(c.join(format!("{n}_0003.npy"))).unwrap()
+    };
+    let (u, v, w) = (read("u"), read("v"), read("w"));
+    assert_eq!(
+        (u.dim(), v.dim(), w.dim()),
+        ((12, 12, 13), (12, 13, 12), (13, 12, 12))
+    );
+    use ndarray::s;
+    let walls = [
+        u.slice(s![.., .., 0]),
+        u.slice(s![.., .., 12]),
+        v.slice(s![.., 0, ..]),
+        v.slice(s![.., 12, ..]),
+        w.slice(s![0, .., ..]),
+        w.slice(s![12, .., ..]),
+    ];
+    assert!(walls.iter().all(|wall| wall.iter().all(|&x| x == 0.0)));
+    assert!(v.iter().any(|&x| x != 0.0), "the gases did not move");
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(c.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["extra"]["grid"]["boundary"], "closed");
+}
+
+/// A CFL number far beyond any resolved flow gets one warning with the number.
+#[test]
+fn a_huge_cfl_number_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = [
+        "run",
+        "hot-cold",
+        "--res",
+        "12",
+        "--frames",
+        "3",
+        "--gravity",
+        "1e9",
+        "--save-every",
+        "0",
+        "--out",
+        "g",
+        "--quiet",
+    ];
+    let o = smokelab(&args, dir.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.matches("warning: CFL number").count(), 1, "{err}");
+    assert!(err.contains("lower --dt or --gravity"), "{err}");
 }
