@@ -123,6 +123,8 @@ pub struct Simulation {
     /// Obstacles and their rule (eqs 6.6–6.7), if any.
     pub boundary: Option<Boundary>,
     velocity_scratch: FaceGrid,
+    /// `Σ lift·ρ` at the cell centres, the buoyancy's input.
+    lift: ScalarGrid,
     advector: Advector,
     pressure: PressureSolver,
 }
@@ -138,6 +140,7 @@ impl Simulation {
             times: StageTimes::default(),
             boundary: None,
             velocity_scratch: FaceGrid::zeros(domain, BoxKind::Periodic),
+            lift: ScalarGrid::zeros(domain),
             advector: Advector::new(domain, &AdvectionOptions::default(), params.backtrace),
             pressure: PressureSolver::new(domain, BoxKind::Periodic),
         }
@@ -310,12 +313,20 @@ impl Simulation {
         let [nx, ny, _] = d.dims;
         let cell = |c: [usize; 3]| (c[2] * ny + c[1]) * nx + c[0];
         let gases = &self.gases;
-        let lift = |n: usize| -> f32 {
-            gases
-                .iter()
-                .map(|g| g.lift * g.density().as_slice()[n])
-                .sum()
-        };
+        self.lift
+            .as_slice_mut()
+            .par_chunks_mut(4096)
+            .enumerate()
+            .for_each(|(c, out)| {
+                for (m, b) in out.iter_mut().enumerate() {
+                    let n = c * 4096 + m;
+                    *b = gases
+                        .iter()
+                        .map(|g| g.lift * g.density().as_slice()[n])
+                        .sum();
+                }
+            });
+        let lift = self.lift.as_slice();
         for a in 0..3 {
             let ga = p.dt * p.gravity[a];
             if ga == 0.0 {
@@ -336,7 +347,7 @@ impl Simulation {
                             below[a] = if below[a] == 0 { n - 1 } else { below[a] - 1 };
                             above[a] = above[a].min(n - 1);
                             slab[j * dims[0] + i] -=
-                                ga * 0.5 * (lift(cell(below)) + lift(cell(above)));
+                                ga * 0.5 * (lift[cell(below)] + lift[cell(above)]);
                         }
                     }
                 });
