@@ -420,28 +420,13 @@ impl FaceGrid {
     pub fn to_cell_centres(&self) -> VectorGrid {
         let [nx, ny, _] = self.domain.dims;
         let mut out = VectorGrid::zeros(self.domain).with_wrap(self.kind.wrap());
-        let [du, dv, dw] = self.dims;
-        let (u, v, w) = (self.slice(0), self.slice(1), self.slice(2));
+        let sampler = self.sampler();
         out.as_vec3_mut()
             .par_chunks_mut(nx * ny)
             .enumerate()
             .for_each(|(k, slab)| {
-                let k1 = if k + 1 < dw[2] { k + 1 } else { 0 };
-                for j in 0..ny {
-                    let j1 = if j + 1 < dv[1] { j + 1 } else { 0 };
-                    let ur = &u[(k * du[1] + j) * du[0]..][..du[0]];
-                    let (v0, v1) = (
-                        &v[(k * dv[1] + j) * nx..][..nx],
-                        &v[(k * dv[1] + j1) * nx..][..nx],
-                    );
-                    let (w0, w1) = (
-                        &w[(k * dw[1] + j) * nx..][..nx],
-                        &w[(k1 * dw[1] + j) * nx..][..nx],
-                    );
-                    for (i, o) in slab[j * nx..(j + 1) * nx].iter_mut().enumerate() {
-                        let i1 = if i + 1 < du[0] { i + 1 } else { 0 };
-                        *o = 0.5 * Vec3::new(ur[i] + ur[i1], v0[i] + v1[i], w0[i] + w1[i]);
-                    }
+                for (n, o) in slab.iter_mut().enumerate() {
+                    *o = sampler.at_cell([n % nx, n / nx, k]);
                 }
             });
         out
