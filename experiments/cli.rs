@@ -14,7 +14,7 @@ use crate::registry;
 use crate::run::{self, RunOptions, SaveFrames};
 use serde::Serialize;
 use smokelab::advection::{Backtrace, Limiter, Scheme};
-use smokelab::boundary::BoundaryRule;
+use smokelab::boundary::{BoundaryRule, ObstacleMethod};
 use smokelab::density::DensityMode;
 use smokelab::error::InputError;
 use smokelab::grid::BoxKind;
@@ -203,15 +203,23 @@ pub struct SceneFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub source_edge: Option<f32>,
-    /// Obstacle rule (slab-box): reflecting (eq 6.6) or sticky (eq 6.7).
+    /// How the pressure solve treats obstacles (slab-box): `exact` (cut
+    /// cells, no flux through closed faces) or `notes` (eqs 6.6–6.7 after a
+    /// periodic projection, `--boundary-passes` times).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub obstacles: Option<ObstacleMethod>,
+    /// Obstacle rule (slab-box): reflecting (eq 6.6; exact: free slip) or
+    /// sticky (eq 6.7; exact: tangential velocity in the wall scaled by α).
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub boundary: Option<BoundaryRule>,
-    /// Fraction α of normal velocity a sticky boundary sends back (slab-box).
+    /// Sticky boundary's α (slab-box): the share of normal velocity sent
+    /// back (notes) or of tangential velocity carried into the wall (exact).
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub alpha: Option<f32>,
-    /// Boundary-rule/projection pairs per step (slab-box).
+    /// Boundary-rule/projection pairs per step (slab-box, `--obstacles notes`).
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub boundary_passes: Option<usize>,

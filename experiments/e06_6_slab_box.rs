@@ -127,7 +127,7 @@ fn run(ctx: &Context) -> Result<()> {
     }
     io::create_output_dir(&ctx.out)?;
     let mut data = String::from(
-        "case,res,frames,alpha,max_obstacle_fraction,max_rim_inward_rms,\
+        "case,res,frames,alpha,max_obstacle_fraction,max_closed_flux,\
          mean_div_fluid_rms,final_mass,injected_mass,diff_vs_quick_reflect,\
          mean_face_cg_iterations,wall_seconds\n",
     );
@@ -158,7 +158,7 @@ fn run(ctx: &Context) -> Result<()> {
             case.name,
             config.boundary_options().retained(),
             m.max("obstacle_fraction")?,
-            m.max("rim_inward_rms")?,
+            m.max("closed_flux_max")?,
             m.mean("div_fluid_rms")?,
             m.last("density_mass")?,
             injected,

@@ -209,18 +209,25 @@ struct FlowColumns {
     substeps: usize,
 }
 
-/// How well obstacles hold ([`Leak`]) and QUICK's open-face projection.
+/// How well obstacles hold ([`Leak`]), the obstacle-aware solve and QUICK's
+/// open-face projection.
 #[derive(Default, Serialize)]
 pub struct ObstacleColumns {
-    /// Central-difference divergence over the fluid cells, rms and max.
+    /// Flux divergence `D_A u` over the wet cells, rms and max.
     div_fluid_rms: f32,
     div_fluid_max: f32,
-    /// Inward normal velocity over the obstacles' rim, rms and max.
-    rim_inward_rms: f32,
-    rim_inward_max: f32,
-    /// Density deeper than one cell inside obstacles, and its share.
+    /// Largest speed through a closed face beside the fluid.
+    closed_flux_max: f32,
+    /// Density in the dry cells (inside obstacles, any depth), and its share.
     obstacle_mass: f64,
     obstacle_fraction: f64,
+    /// Gas in the fluid (`Σ ρ Δx³` over the wet cells, all gases) over the
+    /// gas injected (`Σ <g>_injected`).
+    retained: f64,
+    /// The obstacle-aware solve (exact obstacles; 0 and NaN with the notes'
+    /// method): conjugate-gradient iterations and relative residual.
+    cg_iterations: usize,
+    cg_residual: f64,
     /// QUICK's face projection: CG iterations and relative residual.
     face_cg_iterations: usize,
     face_div_rel: f32,
@@ -421,17 +428,22 @@ pub fn run_with<C: Serialize>(
                 }
             })
             .collect();
+        let injected_total =
+            frame as f64 * sim.params.dt as f64 * summary.injection_rates.iter().sum::<f64>();
         let obstacles = sim.boundary.as_ref().map(|b| {
             let densities: Vec<_> = sim.gases.iter().map(|g| g.density()).collect();
             let leak = b.leak(&sim.velocity, &densities);
             let (iterations, residual) = sim.advector().face_projection_stats().unwrap_or((0, 0.0));
+            let cg = sim.cg_report();
             ObstacleColumns {
                 div_fluid_rms: leak.div_fluid.rms,
                 div_fluid_max: leak.div_fluid.max,
-                rim_inward_rms: leak.rim_inward.rms,
-                rim_inward_max: leak.rim_inward.max,
+                closed_flux_max: leak.closed_flux_max,
                 obstacle_mass: leak.mass_inside,
                 obstacle_fraction: leak.mass_fraction,
+                retained: leak.mass_fluid / injected_total,
+                cg_iterations: cg.map_or(0, |c| c.iterations),
+                cg_residual: cg.map_or(f64::NAN, |c| c.residual),
                 face_cg_iterations: iterations,
                 face_div_rel: residual,
             }

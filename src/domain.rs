@@ -7,6 +7,7 @@
 //!   `(nz, ny, nx)` and vector grids add a trailing axis of 3 components.
 
 use glam::Vec3;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::error::InputError;
@@ -142,6 +143,38 @@ impl Domain {
     #[inline]
     pub fn index(&self, i: usize, j: usize, k: usize) -> usize {
         (k * self.dims[1] + j) * self.dims[0] + i
+    }
+
+    /// Linear index of cell `c` moved `step` cells along `axis`, wrapped
+    /// (periodic).
+    #[inline]
+    pub fn neighbour(&self, c: [usize; 3], axis: usize, step: isize) -> usize {
+        let mut c = c;
+        c[axis] = (c[axis] as isize + step).rem_euclid(self.dims[axis] as isize) as usize;
+        self.index(c[0], c[1], c[2])
+    }
+
+    /// Call `f(n, [i, j, k], &mut values[n])` for every cell of a `[z][y][x]`
+    /// array (or a periodic face component, which has the same layout), in
+    /// parallel over z-slabs.
+    ///
+    /// # Panics
+    /// If `values` does not have one entry per cell.
+    pub fn par_for_each_cell<T: Send>(
+        &self,
+        values: &mut [T],
+        f: impl Fn(usize, [usize; 3], &mut T) + Sync,
+    ) {
+        assert_eq!(values.len(), self.len(), "one value per cell");
+        let [nx, ny, _] = self.dims;
+        values
+            .par_chunks_mut(nx * ny)
+            .enumerate()
+            .for_each(|(k, slab)| {
+                for (m, v) in slab.iter_mut().enumerate() {
+                    f(k * nx * ny + m, [m % nx, m / nx, k], v);
+                }
+            });
     }
 
     /// Whether a world point lies inside the box (lower faces included).

@@ -103,6 +103,8 @@ use crate::error::InputError;
 use crate::grid::face::{BoxKind, FaceGrid, Real};
 use crate::grid::ScalarGrid;
 
+pub mod obstacles;
+
 /// What to multiply each mode by between the forward and inverse transform.
 #[derive(Clone, Copy, Debug)]
 enum Filter {
@@ -699,6 +701,26 @@ impl PressureSolver {
         self.engine.forward(0, f.as_slice());
         self.engine
             .finish(0, Filter::InverseLaplacian, p.as_slice_mut());
+    }
+
+    /// [`Self::solve_poisson`] on f64 `[z][y][x]` cell arrays (the cut-cell
+    /// preconditioner).
+    ///
+    /// # Panics
+    /// If an array does not have one value per cell.
+    pub fn solve_poisson_f64(&mut self, f: &[f64], p: &mut [f64]) {
+        assert_eq!(
+            f.len(),
+            self.domain.len(),
+            "solve_poisson: one value per cell"
+        );
+        assert_eq!(
+            p.len(),
+            self.domain.len(),
+            "solve_poisson: one value per cell"
+        );
+        self.engine.forward(0, f);
+        self.engine.finish(0, Filter::InverseLaplacian, p);
     }
 
     /// Exact viscous step: each component `û_a ← û_a exp(λ_a ν Δt)` on its

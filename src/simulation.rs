@@ -18,7 +18,9 @@
 //! (gridless and SELMA densities sampled at the cell centres for the
 //! force), [`Simulation::add_buoyancy`] and [`Simulation::project`],
 //! followed by [`Simulation::apply_boundary`] when there are obstacles
-//! (§6.3, eqs 6.6–6.7). Gridded densities and the velocity move together
+//! (§6.3: with the exact method the projection is the obstacle-aware solve of
+//! [`crate::pressure::obstacles`]; with the notes' method eqs 6.6–6.7 follow
+//! the periodic projection). Gridded densities and the velocity move together
 //! through the chosen [`Advector`]: semi-Lagrangian in one sweep that traces
 //! each departure point once, or QUICK through face velocities frozen once.
 //! The densities are advected by the velocity of the start of the step, as
@@ -30,11 +32,12 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::advection::{AdvectionOptions, Advector, Backtrace, CflError};
-use crate::boundary::Boundary;
+use crate::boundary::{Boundary, ObstacleMethod};
 use crate::density::{total_bytes, DensityModel, DensityOptions, StepInput};
 use crate::domain::Domain;
 use crate::field::Scalar;
 use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
+use crate::pressure::obstacles::{CgReport, ObstacleProjection, TOLERANCE};
 use crate::pressure::PressureSolver;
 use crate::timing::{timed, StageTimes};
 
@@ -127,6 +130,8 @@ pub struct Simulation {
     lift: ScalarGrid,
     advector: Advector,
     pressure: PressureSolver,
+    /// The obstacle-aware pressure solve, with obstacles and the exact method.
+    obstacle_projection: Option<ObstacleProjection>,
 }
 
 impl Simulation {
@@ -143,6 +148,7 @@ impl Simulation {
             lift: ScalarGrid::zeros(domain),
             advector: Advector::new(domain, &AdvectionOptions::default(), params.backtrace),
             pressure: PressureSolver::new(domain, BoxKind::Periodic),
+            obstacle_projection: None,
         }
     }
 
@@ -187,7 +193,9 @@ impl Simulation {
         self
     }
 
-    /// The same simulation with obstacles (QUICK closes the faces of their cells).
+    /// The same simulation with obstacles (QUICK closes the faces of their
+    /// cells); with [`ObstacleMethod::Exact`] the projection becomes the
+    /// obstacle-aware solve over the wet cells.
     ///
     /// # Panics
     /// If the boundary was sampled on another domain.
@@ -198,8 +206,16 @@ impl Simulation {
             "boundary sampled on another domain"
         );
         self.advector.set_solid(&boundary.solid());
+        self.obstacle_projection = (boundary.options().method == ObstacleMethod::Exact)
+            .then(|| ObstacleProjection::new(boundary.open_faces(), TOLERANCE));
         self.boundary = Some(boundary);
         self
+    }
+
+    /// Iterations and relative residual of the last obstacle-aware solve (exact
+    /// obstacles only).
+    pub fn cg_report(&self) -> Option<CgReport> {
+        self.obstacle_projection.as_ref().map(|c| c.report())
     }
 
     /// The advection state of the last step (e.g. its QUICK sub-step count).
@@ -252,12 +268,20 @@ impl Simulation {
     /// sharing one backtrace per cell; QUICK: finite volumes through the same
     /// frozen face velocities); gridless densities keep the velocity (eq 7.4)
     /// and SELMA advects its map (eq 8.8), both with the semi-Lagrangian
-    /// backtrace whatever the scheme.
+    /// backtrace whatever the scheme. With exact obstacles a gridded density
+    /// holds nothing in the dry cells after the step
+    /// ([`crate::boundary::OpenFaces::clear_dry`]): what a backtrace carried
+    /// there is lost, and counted so by the retained mass.
     ///
     /// # Errors
     /// As [`Advector::advect`]; nothing is changed then.
     pub fn advect(&mut self) -> Result<(), CflError> {
         let p = self.params;
+        let faces = self
+            .obstacle_projection
+            .is_some()
+            .then(|| self.boundary.as_ref().map(|b| b.open_faces()))
+            .flatten();
         let snapshot = self
             .gases
             .iter()
@@ -283,6 +307,9 @@ impl Simulation {
         };
         for gas in &mut self.gases {
             gas.model.step(&input, &gas.source);
+            if let (Some(faces), Some(rho)) = (faces, gas.model.gridded_mut()) {
+                faces.clear_dry(rho.as_slice_mut());
+            }
         }
         std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
         Ok(())
@@ -357,7 +384,8 @@ impl Simulation {
 
     /// Eq 6.3: make the velocity exactly (discretely) divergence-free with
     /// the pressure solve, after diffusing it exactly if ν > 0 (the two
-    /// commute, [`crate::pressure`]).
+    /// commute, [`crate::pressure`]). With exact obstacles the solve is the
+    /// obstacle-aware one (the viscosity still ignores obstacles).
     ///
     /// # Panics
     /// If the viscosity or Δt is negative or not finite (scenarios refuse
@@ -367,15 +395,27 @@ impl Simulation {
         if let Err(e) = self.pressure.diffuse(&mut self.velocity, p.viscosity, p.dt) {
             panic!("{e}");
         }
-        self.pressure.project(&mut self.velocity);
+        match &mut self.obstacle_projection {
+            Some(c) => {
+                c.project(&mut self.velocity, &mut self.pressure);
+            }
+            None => self.pressure.project(&mut self.velocity),
+        }
     }
 
-    /// Eqs 6.6/6.7 on the obstacles, alternated with the (periodic) projection
-    /// [`Boundary::passes`] times and ending with the rule, so that after a
-    /// step no obstacle cell flows inward; the divergence left near obstacles
-    /// is what `metrics.csv` reports.
+    /// The obstacles' closed faces. Exact method: surface faces set to zero
+    /// and the α-scaled velocity extended into the walls
+    /// ([`crate::boundary::OpenFaces::extend`]). Notes' method: eqs 6.6/6.7,
+    /// alternated with the (periodic) projection [`Boundary::passes`] times
+    /// and ending with the rule; the divergence it leaves near obstacles is
+    /// what `metrics.csv` reports.
     pub fn apply_boundary(&mut self) {
         let Some(b) = &self.boundary else { return };
+        if self.obstacle_projection.is_some() {
+            b.open_faces()
+                .extend(&mut self.velocity, b.options().retained());
+            return;
+        }
         b.apply(&mut self.velocity);
         for _ in 1..b.passes() {
             self.pressure.project(&mut self.velocity);

@@ -70,8 +70,11 @@ fn cli_rejects_bad_boundary_input_and_runs_slab_box() {
     let header = csv.lines().next().unwrap();
     for c in [
         "div_fluid_rms",
-        "rim_inward_rms",
+        "closed_flux_max",
         "obstacle_fraction",
+        "retained",
+        "cg_iterations",
+        "cg_residual",
         "substeps",
     ] {
         assert!(header.contains(c), "metrics.csv lacks {c}: {header}");

@@ -20,20 +20,33 @@
 //! are sampled once at the cell centres and at those faces when a
 //! [`Boundary`] is built (obstacles do not move).
 //!
-//! # Boundary and projection
-//! The pressure solve is periodic and knows nothing of obstacles: after a
+//! # Two methods
+//! [`ObstacleMethod::Exact`] (the default) knows the obstacles in the
+//! pressure solve: faces between fluid cells are open, the others closed
+//! ([`open_faces`]), and the projection makes the fluxes through the faces of
+//! every wet cell balance
+//! ([`crate::pressure::obstacles`]), so no flow enters an obstacle. The rule
+//! then has nothing to turn around; its α keeps a meaning for the
+//! tangential flow: the closed faces inside an obstacle carry α times the
+//! fluid's velocity beside them ([`OpenFaces::extend`]) — reflect (α = 1) is
+//! a free-slip wall, sticky with α < 1 slows the flow along the wall,
+//! α = 0 holds it at zero half a cell inside the wall.
+//!
+//! [`ObstacleMethod::Notes`] is the notes' method, kept to reproduce them:
+//! the pressure solve is periodic and knows nothing of obstacles, so after a
 //! projection the rule is broken, and after the rule the velocity is
 //! divergent near obstacles. The simulation applies the rule and the
-//! projection alternately [`Boundary::passes`] times (default 4) and always
-//! *ends with the rule*; the divergence left near obstacles is reported in
-//! `metrics.csv` (`div_fluid_*`, the compact divergence over fluid cells),
-//! with the leak (`obstacle_*`: density deeper than one cell inside
-//! obstacles). This is the notes' method, kept to reproduce them; it leaks
-//! (README, "Obstacles"). QUICK instead closes every obstacle face and makes
-//! its advecting face velocities divergence-free around obstacles with a
-//! small Poisson solve ([`crate::advection::quick`]), so densities advected
-//! by QUICK neither leak into obstacles nor pile up against them.
+//! projection alternately [`Boundary::passes`] times and always ends with
+//! the rule. It leaks (README, "Obstacles"): the projected jet runs into an
+//! obstacle and the gas carried there is lost.
+//!
+//! Both methods report the same measures ([`Leak`]): the flux
+//! divergence over the wet cells, the speed through closed faces, and the
+//! mass in dry cells. QUICK in addition closes every face of an obstacle
+//! cell and makes its advecting face velocities divergence-free around
+//! them with a small Poisson solve ([`crate::advection::quick`]).
 
+pub mod open_faces;
 pub mod level_set;
 
 use glam::Vec3;
@@ -43,10 +56,11 @@ use serde::{Deserialize, Serialize};
 use crate::domain::Domain;
 use crate::error::InputError;
 use crate::grid::{FaceGrid, ScalarGrid};
-use crate::metrics::{rms_max, RmsMax};
+use crate::metrics::RmsMax;
 pub use level_set::{
     AsField, Cuboid, FieldLevelSet, LevelSet, Obstacle, Slab, Sphere, Union, Walls,
 };
+pub use open_faces::OpenFaces;
 
 /// What happens to fluid flowing into an obstacle.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -65,20 +79,46 @@ impl BoundaryRule {
     pub const ALL: [BoundaryRule; 2] = [BoundaryRule::Reflect, BoundaryRule::Sticky];
 }
 
-/// The rule, its α and the number of rule/projection passes per step.
+/// How the pressure solve treats obstacles (module documentation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
+pub enum ObstacleMethod {
+    /// Cut-cell pressure solve: no flux through closed faces.
+    #[default]
+    Exact,
+    /// Eqs 6.6–6.7 alternated with the periodic projection (the notes).
+    Notes,
+}
+
+impl ObstacleMethod {
+    /// The name used in configurations and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            ObstacleMethod::Exact => "exact",
+            ObstacleMethod::Notes => "notes",
+        }
+    }
+}
+
+/// The method, the rule, its α and the number of rule/projection passes.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BoundaryOptions {
+    /// Cut-cell projection or the notes' rule.
+    pub method: ObstacleMethod,
     /// Reflect (6.6) or sticky (6.7).
     pub rule: BoundaryRule,
     /// Fraction α of the normal velocity a sticky boundary sends back (ignored by reflect).
     pub alpha: f32,
-    /// Rule/projection pairs per step (at least 1; the step ends with the rule).
+    /// Rule/projection pairs per step with the notes' method (at least 1;
+    /// the step ends with the rule).
     pub passes: usize,
 }
 
 impl Default for BoundaryOptions {
     fn default() -> Self {
         Self {
+            method: ObstacleMethod::Exact,
             rule: BoundaryRule::Reflect,
             alpha: 0.5,
             passes: 4,
@@ -103,7 +143,8 @@ impl BoundaryOptions {
         Ok(())
     }
 
-    /// The fraction α of inward normal velocity sent back: 1 for reflect.
+    /// The fraction α of inward normal velocity sent back (notes) or of
+    /// tangential velocity carried into the wall (exact): 1 for reflect.
     pub fn retained(&self) -> f32 {
         match self.rule {
             BoundaryRule::Reflect => 1.0,
@@ -120,6 +161,8 @@ pub struct Boundary {
     level: ScalarGrid,
     /// Per velocity component, its faces with `O ≥ 0` (periodic box).
     faces: [Vec<SolidFace>; 3],
+    /// Which faces are open.
+    faces_open: OpenFaces,
 }
 
 /// A face inside or on an obstacle.
@@ -129,8 +172,6 @@ struct SolidFace {
     index: usize,
     /// Position in cell-centre grid coordinates.
     at: Vec3,
-    /// `O` there (≥ 0).
-    level: f32,
     /// Unit `∇O/|∇O|` (zero where `∇O = 0`).
     normal: Vec3,
 }
@@ -160,7 +201,6 @@ impl Boundary {
                     (level >= 0.0).then(|| SolidFace {
                         index: domain.index(i, j, k),
                         at,
-                        level,
                         normal: obstacle.gradient(p).normalize_or_zero(),
                     })
                 })
@@ -168,6 +208,7 @@ impl Boundary {
         });
         Ok(Self {
             options,
+            faces_open: OpenFaces::new(&level),
             level,
             faces,
         })
@@ -178,7 +219,12 @@ impl Boundary {
         &self.options
     }
 
-    /// Rule/projection pairs per step.
+    /// Which faces are open, and the cells they make wet.
+    pub fn open_faces(&self) -> &OpenFaces {
+        &self.faces_open
+    }
+
+    /// Rule/projection pairs per step (notes' method).
     pub fn passes(&self) -> usize {
         self.options.passes
     }
@@ -232,59 +278,18 @@ impl Boundary {
         }
     }
 
-    /// Inward normal velocity `max(u·n, 0)` over the rim, the faces with
-    /// `0 ≤ O < Δx` (inside an obstacle, within one cell of its surface), `u`
-    /// the velocity's point query at the face.
-    pub fn rim_inward(&self, vel: &FaceGrid) -> RmsMax {
-        let dx = self.level.domain().cell;
-        let v: Vec<f32> = self
-            .faces
-            .par_iter()
-            .flat_map_iter(|faces| faces.iter())
-            .filter(|f| f.level < dx)
-            .map(|f| vel.sample_grid_coords(f.at).dot(f.normal).max(0.0))
-            .collect();
-        rms_max(&v)
-    }
-
-    /// Mass `Σ ρ Δx³` in cells deeper than one cell inside obstacles (`O > Δx`).
-    pub fn mass_inside(&self, rho: &ScalarGrid) -> f64 {
-        let d = *self.level.domain();
-        let sum: f64 = self
-            .level
-            .as_slice()
-            .par_iter()
-            .zip(rho.as_slice().par_iter())
-            .filter(|(&o, _)| o > d.cell)
-            .map(|(_, &r)| r as f64)
-            .sum();
-        sum * d.cell_volume() as f64
-    }
-
-    /// RMS and max of a per-cell quantity (e.g. the divergence) over the
-    /// fluid, the cells with `O < 0`.
-    pub fn over_fluid(&self, values: &ScalarGrid) -> RmsMax {
-        let v: Vec<f32> = self
-            .level
-            .as_slice()
-            .par_iter()
-            .zip(values.as_slice().par_iter())
-            .filter(|(&o, _)| o < 0.0)
-            .map(|(_, &v)| v)
-            .collect();
-        rms_max(&v)
-    }
-
     /// Every leak measure at once, for `metrics.csv` and tests.
     pub fn leak(&self, vel: &FaceGrid, densities: &[&ScalarGrid]) -> Leak {
-        let inside: f64 = densities.iter().map(|r| self.mass_inside(r)).sum();
+        let inside: f64 = densities
+            .iter()
+            .map(|r| self.faces_open.mass_inside(r.as_slice()))
+            .sum();
         let total: f64 = densities.iter().map(|r| r.total()).sum();
-        let mut div = ScalarGrid::zeros(*vel.domain());
-        vel.divergence(&mut div);
         Leak {
-            div_fluid: self.over_fluid(&div),
-            rim_inward: self.rim_inward(vel),
+            div_fluid: self.faces_open.flux_divergence_stats(vel),
+            closed_flux_max: self.faces_open.closed_flux_max(vel),
             u_rms: vel.rms(),
+            mass_fluid: total - inside,
             mass_inside: inside,
             mass_fraction: if total > 0.0 { inside / total } else { 0.0 },
         }
@@ -294,13 +299,15 @@ impl Boundary {
 /// How well obstacles hold after a step.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Leak {
-    /// Compact divergence over the fluid cells (`O < 0`).
+    /// Flux divergence `D_A u` over the wet cells ([`open_faces`]).
     pub div_fluid: RmsMax,
-    /// Inward normal velocity over the rim (`0 ≤ O < Δx`).
-    pub rim_inward: RmsMax,
-    /// RMS speed over the whole box, the scale for `rim_inward`.
+    /// Largest speed through a closed face beside the fluid.
+    pub closed_flux_max: f32,
+    /// RMS speed over the whole box, the scale for `closed_flux_max`.
     pub u_rms: f32,
-    /// Density mass deeper than one cell inside obstacles (`O > Δx`).
+    /// Density mass `Σ ρ Δx³` in the wet cells (the fluid).
+    pub mass_fluid: f64,
+    /// Density mass in the dry cells (inside obstacles), at any depth.
     pub mass_inside: f64,
     /// `mass_inside` over the total mass (0 when there is none).
     pub mass_fraction: f64,
@@ -329,6 +336,7 @@ mod tests {
             d,
             &o,
             BoundaryOptions {
+                method: ObstacleMethod::Notes,
                 rule,
                 alpha,
                 passes: 1,
@@ -353,6 +361,7 @@ mod tests {
     fn rejects_bad_alpha_and_passes() {
         for (alpha, passes) in [(1.5, 1), (-0.1, 1), (f32::NAN, 1), (0.5, 0)] {
             let o = BoundaryOptions {
+                method: ObstacleMethod::Notes,
                 rule: BoundaryRule::Sticky,
                 alpha,
                 passes,
@@ -405,20 +414,25 @@ mod tests {
                     assert!(after.slice(a)[f.index] * f.normal[a] <= 1e-6);
                 }
             }
-            assert!(b.rim_inward(&before).max > 0.1);
+            assert!(b.open_faces().closed_flux_max(&before) > 0.5);
         }
     }
 
     #[test]
-    fn measures_mass_only_deeper_than_one_cell() {
+    fn measures_mass_in_dry_cells_at_any_depth() {
         let b = ball_in_box(BoundaryRule::Reflect, 1.0);
         let d = *b.level().domain();
         let mut rho = ScalarGrid::zeros(d);
-        // One unit of density in the rim of the ball and one at its centre.
-        let rim = d.index(8, 8 + 3, 8); // O = 0.9 − 0.875 ≈ 0.025 < Δx
-        let deep = d.index(8, 8, 8); // O = 0.9 − 0.125·√3 > Δx
-        rho.as_slice_mut()[rim] = 1.0;
-        rho.as_slice_mut()[deep] = 1.0;
-        assert!((b.mass_inside(&rho) - d.cell_volume() as f64).abs() < 1e-9);
+        // One unit of density in each of: a cell just inside the ball
+        // (O = 0.9 − 0.875 = 0.025, shallower than a cell), the ball's
+        // centre, and the fluid cell just above the ball.
+        let (rim, deep, fluid) = (d.index(8, 11, 8), d.index(8, 8, 8), d.index(8, 12, 8));
+        let wet = b.open_faces().wet();
+        assert!(!wet[rim] && !wet[deep] && wet[fluid]);
+        for c in [rim, deep, fluid] {
+            rho.as_slice_mut()[c] = 1.0;
+        }
+        let inside = b.open_faces().mass_inside(rho.as_slice());
+        assert!((inside - 2.0 * d.cell_volume() as f64).abs() < 1e-9);
     }
 }

@@ -69,6 +69,11 @@ impl Gridded {
         &self.density
     }
 
+    /// The density at the cell centres, to edit (ghost values at walls).
+    pub fn density_mut(&mut self) -> &mut ScalarGrid {
+        &mut self.density
+    }
+
     /// Sample the trilinear interpolant at the cell centres of `grid` (a copy
     /// when `grid` is on the density's own domain).
     pub fn sample(&self, grid: &mut ScalarGrid) {

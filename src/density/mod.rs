@@ -318,6 +318,14 @@ impl DensityModel {
         }
     }
 
+    /// The gridded density, to edit (`None` for gridless and SELMA).
+    pub fn gridded_mut(&mut self) -> Option<&mut ScalarGrid> {
+        match self {
+            DensityModel::Gridded(g) => Some(g.density_mut()),
+            _ => None,
+        }
+    }
+
     /// Advance one step: advect with the input velocity and inject the
     /// source for Δt (eq 6.4 / 7.4 / 8.8). The gridded model was advected
     /// into its target by the caller (see [`Self::advection_pair`]) and here

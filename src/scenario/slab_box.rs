@@ -6,8 +6,11 @@
 //! the box is [`Walls`] — solid outside its interior, a wall of thickness
 //! `wall` inside the periodic domain, so the periodic FFT projection and QUICK
 //! stencils never couple the fluid across the box — and the slab is a
-//! [`Cuboid`]. Fluid flowing into either is reflected (eq 6.6) or sent back
-//! with a fraction α of its normal speed (sticky, eq 6.7).
+//! [`Cuboid`]. By default the pressure solve knows both (cut cells,
+//! [`ObstacleMethod::Exact`]) and no flow enters them; with the notes'
+//! method fluid flowing into either is reflected (eq 6.6) or sent back with
+//! a fraction α of its normal speed (sticky, eq 6.7) after a periodic
+//! projection.
 //!
 //! Defaults (box edge 10, wall 0.8, slab `[2.5, 7.5] × [5.5, 6.3] × [1.5, 8.5]`,
 //! source of radius 1 at `(4.2, 2, 5)`, off the slab's centre so the gas turns
@@ -24,7 +27,8 @@ use super::config::check_sources;
 use super::{Scenario, SolverConfig};
 use crate::advection::Scheme;
 use crate::boundary::{
-    Boundary, BoundaryOptions, BoundaryRule, Cuboid, LevelSet, Obstacle, Union, Walls,
+    Boundary, BoundaryOptions, BoundaryRule, Cuboid, LevelSet, Obstacle, ObstacleMethod, Union,
+    Walls,
 };
 use crate::density::DensityMode;
 use crate::error::{check_positive, InputError};
@@ -51,11 +55,16 @@ pub struct SlabBoxConfig {
     pub slab_min: [f32; 3],
     /// Upper corner of the slab.
     pub slab_max: [f32; 3],
-    /// Reflecting (eq 6.6) or sticky (eq 6.7).
+    /// How the pressure solve treats the obstacles: `exact` (cut cells, no
+    /// flux through closed faces) or `notes` (eqs 6.6–6.7 with the periodic
+    /// projection).
+    pub obstacles: ObstacleMethod,
+    /// Reflecting (eq 6.6) or sticky (eq 6.7); with exact obstacles, free
+    /// slip or the tangential velocity in the wall scaled by α.
     pub boundary: BoundaryRule,
     /// Fraction α of normal velocity a sticky boundary sends back.
     pub alpha: f32,
-    /// Boundary-rule/projection pairs per step.
+    /// Boundary-rule/projection pairs per step (notes' method).
     pub boundary_passes: usize,
 }
 
@@ -68,6 +77,7 @@ impl Default for SlabBoxConfig {
             wall: 0.8,
             slab_min: [2.5, 5.5, 1.5],
             slab_max: [7.5, 6.3, 8.5],
+            obstacles: ObstacleMethod::Exact,
             boundary: BoundaryRule::Reflect,
             alpha: 0.5,
             boundary_passes: 4,
@@ -118,6 +128,7 @@ impl SlabBoxConfig {
     /// The rule, α and passes.
     pub fn boundary_options(&self) -> BoundaryOptions {
         BoundaryOptions {
+            method: self.obstacles,
             rule: self.boundary,
             alpha: self.alpha,
             passes: self.boundary_passes,
