@@ -206,8 +206,15 @@ impl Simulation {
             "boundary sampled on another domain"
         );
         self.advector.set_solid(&boundary.solid());
-        self.obstacle_projection = (boundary.options().method == ObstacleMethod::Exact)
-            .then(|| ObstacleProjection::new(boundary.open_faces(), TOLERANCE));
+        let exact = boundary.options().method == ObstacleMethod::Exact;
+        self.obstacle_projection =
+            exact.then(|| ObstacleProjection::new(boundary.open_faces(), TOLERANCE));
+        if exact {
+            let walls = Arc::new(boundary.wall_stop());
+            for gas in &mut self.gases {
+                gas.model.set_walls(&walls);
+            }
+        }
         self.boundary = Some(boundary);
         self
     }

@@ -47,6 +47,7 @@
 //! them with a small Poisson solve ([`crate::advection::quick`]).
 
 pub mod open_faces;
+pub mod wall_stop;
 pub mod level_set;
 
 use glam::Vec3;
@@ -61,6 +62,7 @@ pub use level_set::{
     AsField, Cuboid, FieldLevelSet, LevelSet, Obstacle, Slab, Sphere, Union, Walls,
 };
 pub use open_faces::OpenFaces;
+pub use wall_stop::WallStop;
 
 /// What happens to fluid flowing into an obstacle.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -217,6 +219,11 @@ impl Boundary {
     /// The rule and pass count.
     pub fn options(&self) -> &BoundaryOptions {
         &self.options
+    }
+
+    /// The level set, for stopping tracers at the obstacles' surface.
+    pub fn wall_stop(&self) -> WallStop {
+        WallStop::new(self.level.clone())
     }
 
     /// Which faces are open, and the cells they make wet.

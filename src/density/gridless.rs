@@ -36,6 +36,7 @@ use glam::Vec3;
 
 use super::{wrap_grid, Buffer, StepInput};
 use crate::advection::{departure_point, Backtrace};
+use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
 use crate::grid::{FaceGrid, ScalarGrid};
@@ -69,6 +70,8 @@ pub struct GridlessField {
     steps: Vec<PastStep>,
     initial: Option<Scalar>,
     source: Option<Scalar>,
+    /// Obstacles: the density is zero inside them.
+    walls: Option<Arc<WallStop>>,
 }
 
 impl GridlessField {
@@ -80,7 +83,17 @@ impl GridlessField {
             steps: Vec::new(),
             initial,
             source,
+            walls: None,
         }
+    }
+
+    /// Read zero inside `walls`. Walks are *not* stopped at their surface:
+    /// measured, stopping them loses more gas (slab-box 32³, SL, step 100:
+    /// 62 % of the injected gas in the fluid cells with the stop, 94 %
+    /// without) — a walk stopped on a wall stays in its stagnant flow for
+    /// the rest of the history and never reaches the source again.
+    pub fn set_walls(&mut self, walls: Arc<WallStop>) {
+        self.walls = Some(walls);
     }
 
     /// Append one step: advect with `velocity` over `dt`, then inject `S Δt`.
@@ -172,6 +185,13 @@ impl ScalarField for GridlessField {
                 *o += r;
             }
         }
+        if let Some(w) = &self.walls {
+            for (o, &p) in out.iter_mut().zip(points) {
+                if w.inside_world(p) {
+                    *o = 0.0;
+                }
+            }
+        }
     }
 }
 
@@ -200,6 +220,11 @@ impl Gridless {
             .snapshot
             .expect("gridless density needs the step's velocity snapshot");
         self.field.push(Arc::clone(u), input.dt, input.backtrace);
+    }
+
+    /// Zero density inside `walls` ([`GridlessField::set_walls`]).
+    pub fn set_walls(&mut self, walls: Arc<WallStop>) {
+        self.field.set_walls(walls);
     }
 
     /// Walk back from every cell centre (the buoyancy input).

@@ -39,6 +39,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use crate::advection::Backtrace;
+use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::error::InputError;
 use crate::field::{Scalar, VectorField};
@@ -315,6 +316,17 @@ impl DensityModel {
         match self {
             DensityModel::Gridded(g) => Some(g.advection_pair()),
             _ => None,
+        }
+    }
+
+    /// Obstacles for a gridless or SELMA density: zero inside them, and
+    /// SELMA's map and lattice stopped at their surface (a gridded density
+    /// is cleared in the dry cells by the simulation instead).
+    pub fn set_walls(&mut self, walls: &Arc<WallStop>) {
+        match self {
+            DensityModel::Gridded(_) => {}
+            DensityModel::Gridless(g) => g.set_walls(walls.clone()),
+            DensityModel::Selma(s) => s.set_walls(walls.clone()),
         }
     }
 

@@ -90,6 +90,7 @@ use rayon::prelude::*;
 
 use super::{wrap_world, Buffer, StepInput};
 use crate::advection::departure_point;
+use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
 use crate::grid::{ScalarGrid, VectorGrid};
@@ -121,6 +122,9 @@ pub struct SelmaField {
     reference: Arc<ScalarGrid>,
     /// `ρ₀`, composed analytically until the first re-anchoring.
     initial: Option<Scalar>,
+    /// Obstacles: map and lattice updates stop at their surface, the
+    /// density is zero inside.
+    walls: Option<Arc<WallStop>>,
 }
 
 impl BackwardMap for SelmaField {
@@ -142,6 +146,22 @@ impl ScalarField for SelmaField {
     }
 
     fn eval_batch(&self, points: &[Vec3], out: &mut [f32]) {
+        self.composed(points, out);
+        if let Some(w) = &self.walls {
+            for (o, &p) in out.iter_mut().zip(points) {
+                if w.inside_world(p) {
+                    *o = 0.0;
+                }
+            }
+        }
+    }
+}
+
+impl SelmaField {
+    /// `ρ₀(X(x)) + R(X(x))` at every point, inside obstacles too (where the
+    /// stopped map reads the density at their surface): what re-anchoring
+    /// resamples, so that a reference cell straddling a wall keeps its gas.
+    fn composed(&self, points: &[Vec3], out: &mut [f32]) {
         assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
         let mut xi = vec![Vec3::ZERO; points.len()];
         self.map_batch(points, &mut xi);
@@ -197,6 +217,7 @@ impl Selma {
             disp: Arc::new(VectorGrid::zeros(map)),
             reference: Arc::new(ScalarGrid::zeros(map)),
             initial,
+            walls: None,
         };
         let centres = ScalarGrid::from_field(domain, &field);
         let mut lattice = VectorGrid::zeros(map);
@@ -255,6 +276,12 @@ impl Selma {
             .reduce(|| 0.0, f32::max)
     }
 
+    /// Stop map and lattice updates at the surface of `walls`; zero density
+    /// inside them ([`crate::boundary::wall_stop`]).
+    pub fn set_walls(&mut self, walls: Arc<WallStop>) {
+        self.field.walls = Some(walls);
+    }
+
     /// Advect the map (eq 8.8), move the reference lattice forward, inject
     /// the source in reference coordinates, and re-anchor when the lattice
     /// has deformed by more than the threshold.
@@ -275,6 +302,11 @@ impl Selma {
         let [nx, ny, _] = md.dims;
         let out = self.disp_scratch.as_vec3_mut();
         let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
+        let walls = self.field.walls.as_deref();
+        let departure = |g: Vec3| {
+            let dep = departure_point(u, g, dt_cells, bt);
+            walls.map_or(dep, |w| w.stop(dep))
+        };
         if md == vd {
             // Map nodes are the velocity grid's cell centres: trace from the
             // integer lattice points, exactly as the gridded path does.
@@ -284,7 +316,7 @@ impl Selma {
                     for j in 0..ny {
                         for i in 0..nx {
                             let c = Vec3::new(i as f32, j as f32, k as f32);
-                            let dep = departure_point(u, c, dt_cells, bt);
+                            let dep = departure(c);
                             out[j * nx + i] = (dep - c) * md.cell + old.sample_grid_coords(dep);
                         }
                     }
@@ -296,8 +328,7 @@ impl Selma {
                     for j in 0..ny {
                         for i in 0..nx {
                             let p = md.cell_center(i, j, k);
-                            let d =
-                                vd.world_of(departure_point(u, vd.grid_coords(p), dt_cells, bt));
+                            let d = vd.world_of(departure(vd.grid_coords(p)));
                             out[j * nx + i] = (d - p) + old.sample_grid_coords(md.grid_coords(d));
                         }
                     }
@@ -313,6 +344,7 @@ impl Selma {
         let vd = *input.velocity.domain();
         let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
         let step = |g: Vec3| g - departure_point(u, g, dt_cells, bt);
+        let walls = self.field.walls.as_deref();
         self.lattice
             .as_vec3_mut()
             .par_chunks_mut(4096)
@@ -322,6 +354,9 @@ impl Selma {
                     let mut g = g0 + step(g0);
                     for _ in 0..FORWARD_ITERATIONS {
                         g = g0 + step(g);
+                    }
+                    if let Some(w) = walls {
+                        g = w.stop(g);
                     }
                     *y = wrap_world(&vd, vd.world_of(g));
                 }
@@ -373,7 +408,7 @@ impl Selma {
                     md.slab_centers(k, centres);
                     sub_points(&md, centres, points);
                     values.resize(points.len(), 0.0);
-                    field.eval_batch(points, values);
+                    field.composed(points, values);
                     for (o, v) in out.iter_mut().zip(values.chunks_exact(8)) {
                         *o = v.iter().sum::<f32>() * 0.125;
                     }

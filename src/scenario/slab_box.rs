@@ -30,7 +30,6 @@ use crate::boundary::{
     Boundary, BoundaryOptions, BoundaryRule, Cuboid, LevelSet, Obstacle, ObstacleMethod, Union,
     Walls,
 };
-use crate::density::DensityMode;
 use crate::error::{check_positive, InputError};
 use crate::field::ops;
 use crate::simulation::{Gas, Simulation};
@@ -159,12 +158,6 @@ impl Scenario for SlabBoxConfig {
                 s.box_kind
             )));
         }
-        if s.density != DensityMode::Gridded {
-            return Err(InputError::new(format!(
-                "density {} is not available for slab-box: its gas is held on the grid (density gridded); obstacles for gridless and SELMA tracers are not built yet",
-                s.density
-            )));
-        }
         if let Some(avail) = crate::timing::available_memory_bytes() {
             let need = self.memory_estimate();
             if need > avail {
@@ -220,7 +213,13 @@ impl Scenario for SlabBoxConfig {
         let s = &self.solver;
         let domain = s.domain()?;
         let source = ops::mask(ops::sphere(Vec3::from(self.source_center), self.radius));
-        let gases = vec![Gas::new("density", domain, &source, 1.0)];
+        let gases = vec![Gas::with_density(
+            "density",
+            domain,
+            &source,
+            1.0,
+            &s.density_options(),
+        )];
         check_sources(&gases, s)?;
         let boundary = Boundary::new(domain, &self.obstacle(), self.boundary_options())?;
         Ok(Simulation::new(domain, s.step_params(), gases)
