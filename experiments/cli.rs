@@ -42,6 +42,8 @@ pub enum Command {
     Experiment(ExperimentArgs),
     /// Render saved density volumes (.npy) to EXR and PNG.
     Render(crate::render_command::RenderArgs),
+    /// Convert a run's saved frames to OpenVDB (`vdb`) or ParaView (`paraview`) files.
+    Export(crate::export::ExportArgs),
     /// Sample a divergence-free noise onto an N³ grid (`noise.npy` + slice PNG).
     Noise(crate::noise_command::NoiseArgs),
     /// Refresh `paper/paper.md` from `results/` and build it to HTML (pandoc).
@@ -340,6 +342,7 @@ pub fn execute(cli: Cli) -> Result<()> {
             init_threads(args.threads)?;
             crate::render_command::run(&args)
         }
+        Some(Command::Export(args)) => crate::export::run(&args),
         Some(Command::Noise(args)) => crate::noise_command::run(&args),
         Some(Command::Paper) => crate::paper::build(&crate::paper::repository_root()?),
     }

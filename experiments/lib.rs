@@ -9,6 +9,7 @@
 pub mod cli;
 pub mod run;
 pub mod frames;
+pub mod export;
 pub mod render_command;
 pub mod noise_command;
 pub mod paper;

@@ -27,12 +27,13 @@ use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
+use crate::export::{write_frame_formats, FrameVolumes};
 use crate::frames::{FrameRecord, FrameRender};
 use crate::table::{field_names, Log};
 use smokelab::density::probe::{self, DensityMeasures, DensityProbe};
 use smokelab::density::DensityMode;
 use smokelab::grid::{BoxKind, ScalarGrid};
-use smokelab::io::vdb::{write_vdb, VdbOptions, VolumeGeometry};
+use smokelab::io::vdb::VolumeGeometry;
 use smokelab::io::vtk::PvdCollection;
 use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::metrics::{self, SpectralShare};
@@ -105,6 +106,8 @@ pub struct GridRecord {
 pub struct RunSummary {
     /// The grid the arrays are sampled on.
     pub grid: GridRecord,
+    /// The gases, in the run's order: each saved frame has `<gas>_NNNN.npy`.
+    pub gases: Vec<String>,
     /// Wall time of the whole run, seconds.
     pub wall_seconds: f64,
     /// Frames whose volumes were written.
@@ -315,6 +318,7 @@ pub fn run_with<C: Serialize>(
             layout: "MAC: u, v, w on the x-, y-, z-faces; densities at cell centres",
             boundary: sim.velocity.kind().name(),
         },
+        gases: sim.gases.iter().map(|g| g.name.clone()).collect(),
         wall_seconds: 0.0,
         saved_frames: vec![],
         previews: vec![],
@@ -534,10 +538,8 @@ pub fn write_frame(
     io::write_png(&preview_path(out, frame), &preview_image(sim))
 }
 
-/// The formats other tools open, for one saved frame: OpenVDB (Houdini,
-/// Blender) with one float grid per gas and the velocity as `vel`, and VTK
-/// image data (ParaView) listed in `run.pvd`. Both place cell `(i, j, k)` at
-/// its centre in world units.
+/// The formats other tools open, for one saved frame (see
+/// [`write_frame_formats`]).
 fn write_exchange(
     sim: &Simulation,
     out: &Path,
@@ -555,23 +557,14 @@ fn write_exchange(
         .map(|g| (g.name.as_str(), g.density().data().view()))
         .collect();
     let centred = sim.velocity.to_cell_centres();
-    let vectors = [("vel", centred.data().view())];
-    if vdb {
-        write_vdb(
-            &out.join(format!("frame_{frame:04}.vdb")),
-            &geometry,
-            &scalars,
-            &vectors,
-            VdbOptions::default(),
-        )?;
-    }
-    if let Some(pvd) = pvd {
-        let file = format!("frame_{frame:04}.vti");
-        // The f32 time as its shortest decimal (0.1, not 0.10000000149…).
-        let time: f64 = sim.time().to_string().parse()?;
-        pvd.write_frame(time, &file, &geometry, &scalars, &vectors)?;
-    }
-    Ok(())
+    let volumes = FrameVolumes {
+        frame,
+        time: sim.time(),
+        geometry: &geometry,
+        scalars: &scalars,
+        vectors: &[("vel", centred.data().view())],
+    };
+    write_frame_formats(out, &volumes, vdb, pvd)
 }
 
 /// Mid-plane slice of every gas in its display colour, obstacles in grey.
