@@ -31,6 +31,7 @@ use ndarray::Array3;
 use serde::Serialize;
 
 use crate::export::RunFolder;
+use crate::progress::{self, Counted};
 use smokelab::domain::Domain;
 use smokelab::error::InputError;
 use smokelab::field::Scalar;
@@ -41,7 +42,7 @@ use smokelab::render::camera::{parse_image_size, parse_vec3, Camera};
 use smokelab::render::lights::PointLight;
 use smokelab::render::output::{self, Display, ExrPrecision};
 use smokelab::render::phase::Phase;
-use smokelab::render::{look, render, RenderSettings, Scene};
+use smokelab::render::{look, ray_box, render, RenderSettings, Scene};
 
 /// `smokelab render`.
 #[derive(Debug, Args)]
@@ -112,6 +113,9 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// Everything resolved from the arguments, recorded in the manifest.
@@ -129,7 +133,17 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let job = resolve(args)?;
     io::check_output_dir(&args.out)?;
-    let rendered = render(&job.scene, &job.settings)?;
+    let bar = progress::bar(
+        expected_queries(&job.scene, &job.settings),
+        "density samples",
+        !args.quiet,
+    );
+    let mut counted = job.scene.clone();
+    for v in &mut counted.volumes {
+        v.density = Arc::new(Counted::new(v.density.clone(), &bar));
+    }
+    let rendered = render(&counted, &job.settings)?;
+    bar.finish_and_clear();
     io::create_output_dir(&args.out)?;
     output::write_exr(&args.out.join("render.exr"), &rendered.image, job.precision)?;
     io::write_png(
@@ -152,6 +166,30 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         args.out.display()
     );
     Ok(())
+}
+
+/// How many density queries rendering `scene` makes at most, for the
+/// progress bar: per volume, the light grids' cells (when a light meets
+/// scattering smoke) and every sub-step of every ray across the box. Rays
+/// that turn opaque stop early, so the bar may end before it fills.
+fn expected_queries(scene: &Scene, settings: &RenderSettings) -> u64 {
+    let bounds = &scene.bounds;
+    let scatters = scene.volumes.iter().any(|v| v.scattering != Vec3::ZERO);
+    let light = if scatters && !scene.lights.is_empty() {
+        bounds.len() as u64
+    } else {
+        0
+    };
+    let cam = settings.camera;
+    let rays = cam.rays();
+    let substep = settings.step.unwrap_or(bounds.cell) / settings.substeps as f32;
+    let (lo, hi) = (bounds.origin, bounds.max_corner());
+    let march: u64 = (0..cam.height)
+        .flat_map(|py| (0..cam.width).map(move |px| (px, py)))
+        .filter_map(|(px, py)| ray_box(rays.origin(), rays.direction(px, py), lo, hi))
+        .map(|(t0, t1)| ((t1 - t0.max(0.0)).max(0.0) / substep).ceil() as u64)
+        .sum();
+    scene.volumes.len() as u64 * (light + march)
 }
 
 /// Check every argument and load the volumes.
