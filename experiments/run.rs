@@ -16,7 +16,9 @@
 //! - `metrics.csv` — one row per step ([`MetricsRow`]), appended and flushed
 //!   as each step ends; the fine-sampled density measures are computed every
 //!   `metrics_every` steps and the last, `NaN` in between;
-//! - `manifest.json` — configuration, machine, commit, wall time, peak memory.
+//! - `manifest.json` — configuration, machine, commit, wall time, peak memory;
+//!   written at the start with `"status": "running"`, rewritten at the end
+//!   with `"status": "complete"`.
 //!
 //! Frame `N` is the state after `N` steps.
 
@@ -343,6 +345,11 @@ pub fn run_with<C: Serialize>(
         final_measures: vec![],
         renders: vec![],
     };
+    // At the start: what runs, where its grid sits and that it has not finished.
+    io::write_json(
+        &opts.out.join("manifest.json"),
+        &Manifest::running(config, seed, serde_json::to_value(&summary)?),
+    )?;
     if let Some(b) = &sim.boundary {
         io::write_npy3(&opts.out.join("obstacle.npy"), b.level().data())?;
     }
