@@ -42,6 +42,8 @@ pub enum Command {
     Experiment(ExperimentArgs),
     /// Render saved density volumes (.npy) to EXR and PNG.
     Render(crate::render_command::RenderArgs),
+    /// Convert a run's saved frames to OpenVDB (`vdb`) or ParaView (`paraview`) files.
+    Export(crate::export::ExportArgs),
     /// Sample a divergence-free noise onto an N³ grid (`noise.npy` + slice PNG).
     Noise(crate::noise_command::NoiseArgs),
     /// Refresh `paper/paper.md` from `results/` and build it to HTML (pandoc).
@@ -348,6 +350,7 @@ pub fn execute(cli: Cli) -> Result<()> {
             init_threads(args.threads)?;
             crate::render_command::run(&args)
         }
+        Some(Command::Export(args)) => crate::export::run(&args),
         Some(Command::Noise(args)) => crate::noise_command::run(&args),
         Some(Command::Paper) => crate::paper::build(&crate::paper::repository_root()?),
     }
@@ -519,24 +522,29 @@ fn run_all_experiments(
     progress: bool,
 ) -> Result<()> {
     let mut rows = Vec::new();
+    // One bar over the experiments; theirs would draw over it, so they stay hidden.
+    let bar = crate::progress::bar(registry::ALL.len() as u64, "experiments", progress);
     for exp in registry::ALL {
         let out = parent.join(exp.folder);
-        println!("== experiment {} ({})", exp.id, exp.reproduces);
+        bar.suspend(|| println!("== experiment {} ({})", exp.id, exp.reproduces));
+        bar.set_message(exp.id);
         let ctx = registry::Context {
             out: out.clone(),
             size,
-            progress,
+            progress: progress && bar.is_hidden(),
         };
         let start = std::time::Instant::now();
         let status = match (exp.run)(&ctx) {
             Ok(()) => "ok".to_string(),
             Err(e) => {
-                eprintln!("experiment {} failed: {e:#}", exp.id);
+                bar.suspend(|| eprintln!("experiment {} failed: {e:#}", exp.id));
                 format!("failed: {e}")
             }
         };
         rows.push((exp, start.elapsed().as_secs_f64(), out, status));
+        bar.inc(1);
     }
+    bar.finish_and_clear();
     let mut table = format!(
         "{:<7} {:<22} {:>9}  {:<28} {}\n",
         "id", "reproduces", "seconds", "output", "status"

@@ -9,9 +9,11 @@
 pub mod cli;
 pub mod run;
 pub mod frames;
+pub mod export;
 pub mod render_command;
 pub mod noise_command;
 pub mod paper;
+pub mod progress;
 
 // Figures and tables.
 pub mod plot;

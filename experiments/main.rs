@@ -15,9 +15,22 @@ fn main() -> ExitCode {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    // Ctrl-C (and SIGTERM, SIGHUP): remove the files being written, so only
+    // whole files remain, and stop with the shell's code for an interrupt.
+    ctrlc::set_handler(|| {
+        let removed = smokelab::io::remove_temporary_files();
+        eprintln!("interrupted; removed {removed} partly written files");
+        std::process::exit(130);
+    })
+    .expect("no other interrupt handler is installed");
     let cli = Cli::try_parse().unwrap_or_else(|e| e.exit());
     match execute(cli) {
         Ok(()) => ExitCode::SUCCESS,
+        // The interrupt handler removed the file being written, so its write
+        // failed; the handler ends the process (exit 130), not this error.
+        Err(_) if smokelab::io::interrupted() => loop {
+            std::thread::park();
+        },
         Err(e) if e.downcast_ref::<InputError>().is_some() => {
             eprintln!("error: {e}");
             ExitCode::from(2)

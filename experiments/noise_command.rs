@@ -13,6 +13,7 @@ use clap::{Args, ValueEnum};
 use glam::Vec2;
 use serde::Serialize;
 
+use crate::progress::{self, Counted};
 use smokelab::domain::Domain;
 use smokelab::error::InputError;
 use smokelab::grid::VectorGrid;
@@ -91,6 +92,9 @@ pub struct NoiseArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// What the manifest records as the configuration.
@@ -175,15 +179,20 @@ pub fn run(args: &NoiseArgs) -> Result<()> {
     io::check_output_dir(&args.out)?;
     let field = spec.build()?;
     io::create_output_dir(&args.out)?;
-    let grid = VectorGrid::from_field(domain, &*field);
-    io::write_npy4(&args.out.join("noise.npy"), grid.data())?;
     let px = args.res.max(512);
+    // Progress: the grid's samples, then the slice's (the LIC after them is
+    // not counted).
+    let bar = progress::bar((domain.len() + px * px) as u64, "samples", !args.quiet);
+    let field = Counted::new(field, &bar);
+    let grid = VectorGrid::from_field(domain, &field);
+    io::write_npy4(&args.out.join("noise.npy"), grid.data())?;
     let mid = domain.cell_center(0, 0, domain.dims[2] / 2).z;
-    let vel = lic::slice(&*field, Vec2::ZERO, Vec2::splat(args.size), mid, px, px);
+    let vel = lic::slice(&field, Vec2::ZERO, Vec2::splat(args.size), mid, px, px);
     io::write_png(
         &args.out.join("slice.png"),
         &lic::render(&vel, px, px, px as f32 / 40.0, spec.seed),
     )?;
+    bar.finish_and_clear();
     let stats = serde_json::json!({
         "rms_speed": grid.rms_norm(),
         "max_speed": grid.max_norm(),

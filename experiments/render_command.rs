@@ -6,7 +6,17 @@
 //!
 //! Each `--density` is an f32 array of shape `(nz, ny, nx)` as `smokelab run`
 //! writes them; all must have the same shape. The box is `[0, size]` along
-//! its longest axis (default 10, the hot/cold box) with cubic cells. Writes
+//! its longest axis (default 10, the hot/cold box) with cubic cells.
+//!
+//! ```text
+//! smokelab render runs/hot-cold-1700000000 [--frame 100] --out renders/f100
+//! ```
+//!
+//! Given a run's folder (`render RUN_DIR` or `--from RUN_DIR`), the box is
+//! the run's (origin and extent from its `manifest.json`) and, without
+//! `--density`, the volumes are the run's gases at `--frame` (default: the
+//! last saved frame), in the run's order; `--size` and `--density` still
+//! override. Writes
 //! `render.exr` (linear, premultiplied RGBA), `render.png` (sRGB preview) and
 //! `manifest.json` (parameters and render statistics). Every input is checked
 //! before anything is written.
@@ -20,29 +30,41 @@ use glam::Vec3;
 use ndarray::Array3;
 use serde::Serialize;
 
+use crate::export::RunFolder;
+use crate::progress::{self, Counted};
 use smokelab::domain::Domain;
 use smokelab::error::InputError;
 use smokelab::field::Scalar;
 use smokelab::grid::{ScalarGrid, Wrap};
+use smokelab::io::vdb::VolumeGeometry;
 use smokelab::io::{self, manifest::Manifest};
 use smokelab::render::camera::{parse_image_size, parse_vec3, Camera};
 use smokelab::render::lights::PointLight;
 use smokelab::render::output::{self, Display, ExrPrecision};
 use smokelab::render::phase::Phase;
-use smokelab::render::{look, render, RenderSettings, Scene};
+use smokelab::render::{look, ray_box, render, RenderSettings, Scene};
 
 /// `smokelab render`.
 #[derive(Debug, Args)]
 pub struct RenderArgs {
+    /// A folder `smokelab run` wrote: its box, and its gases at --frame unless --density is given.
+    #[arg(value_name = "RUN_DIR")]
+    pub run_dir: Option<PathBuf>,
+    /// The same as the RUN_DIR argument.
+    #[arg(long = "from", value_name = "RUN_DIR")]
+    pub from: Option<PathBuf>,
+    /// The saved frame of the run to render (default: its last).
+    #[arg(long, allow_negative_numbers = true)]
+    pub frame: Option<usize>,
     /// A density volume (.npy, f32, shape (nz, ny, nx)); repeat for several gases.
-    #[arg(long = "density", required = true)]
+    #[arg(long = "density")]
     pub densities: Vec<PathBuf>,
     /// Display colour R,G,B of the matching --density (default: red, blue, green, white…).
     #[arg(long = "color", allow_hyphen_values = true)]
     pub colors: Vec<String>,
-    /// Edge length of the box along its longest axis.
-    #[arg(long, default_value_t = 10.0, allow_negative_numbers = true)]
-    pub size: f32,
+    /// Edge length of the box along its longest axis (default: the run's, else 10).
+    #[arg(long, allow_negative_numbers = true)]
+    pub size: Option<f32>,
     /// Camera position X,Y,Z (default: framing the box in three-quarter view).
     #[arg(long, allow_hyphen_values = true)]
     pub camera: Option<String>,
@@ -91,6 +113,9 @@ pub struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Hide the progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// Everything resolved from the arguments, recorded in the manifest.
@@ -108,7 +133,17 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let job = resolve(args)?;
     io::check_output_dir(&args.out)?;
-    let rendered = render(&job.scene, &job.settings)?;
+    let bar = progress::bar(
+        expected_queries(&job.scene, &job.settings),
+        "density samples",
+        !args.quiet,
+    );
+    let mut counted = job.scene.clone();
+    for v in &mut counted.volumes {
+        v.density = Arc::new(Counted::new(v.density.clone(), &bar));
+    }
+    let rendered = render(&counted, &job.settings)?;
+    bar.finish_and_clear();
     io::create_output_dir(&args.out)?;
     output::write_exr(&args.out.join("render.exr"), &rendered.image, job.precision)?;
     io::write_png(
@@ -133,6 +168,30 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     Ok(())
 }
 
+/// How many density queries rendering `scene` makes at most, for the
+/// progress bar: per volume, the light grids' cells (when a light meets
+/// scattering smoke) and every sub-step of every ray across the box. Rays
+/// that turn opaque stop early, so the bar may end before it fills.
+fn expected_queries(scene: &Scene, settings: &RenderSettings) -> u64 {
+    let bounds = &scene.bounds;
+    let scatters = scene.volumes.iter().any(|v| v.scattering != Vec3::ZERO);
+    let light = if scatters && !scene.lights.is_empty() {
+        bounds.len() as u64
+    } else {
+        0
+    };
+    let cam = settings.camera;
+    let rays = cam.rays();
+    let substep = settings.step.unwrap_or(bounds.cell) / settings.substeps as f32;
+    let (lo, hi) = (bounds.origin, bounds.max_corner());
+    let march: u64 = (0..cam.height)
+        .flat_map(|py| (0..cam.width).map(move |px| (px, py)))
+        .filter_map(|(px, py)| ray_box(rays.origin(), rays.direction(px, py), lo, hi))
+        .map(|(t0, t1)| ((t1 - t0.max(0.0)).max(0.0) / substep).ceil() as u64)
+        .sum();
+    scene.volumes.len() as u64 * (light + march)
+}
+
 /// Check every argument and load the volumes.
 fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
     let (width, height) = parse_image_size(&args.image)?;
@@ -154,42 +213,52 @@ fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
             args.exposure
         )));
     }
-    if !(args.size.is_finite() && args.size > 0.0) {
-        return Err(InputError::new(format!(
-            "--size is {}; it must be a positive finite number",
-            args.size
-        )));
+    if let Some(size) = args.size {
+        if !(size.is_finite() && size > 0.0) {
+            return Err(InputError::new(format!(
+                "--size is {size}; it must be a positive finite number"
+            )));
+        }
     }
-    if args.colors.len() > args.densities.len() {
+    let run = match (&args.run_dir, &args.from) {
+        (Some(a), Some(b)) => {
+            return Err(InputError::new(format!(
+                "two run folders, {} and --from {}; give one",
+                a.display(),
+                b.display()
+            )))
+        }
+        (Some(dir), None) | (None, Some(dir)) => Some(RunFolder::open(dir)?),
+        (None, None) => None,
+    };
+    let densities = volume_paths(args, run.as_ref())?;
+    if args.colors.len() > densities.len() {
         return Err(InputError::new(format!(
-            "{} --color values for {} --density volumes; give at most one colour per volume",
+            "{} --color values for {} volumes; give at most one colour per volume",
             args.colors.len(),
-            args.densities.len()
+            densities.len()
         )));
     }
     let phase = Phase::parse(&args.phase)?;
-    let arrays = args
-        .densities
+    let arrays = densities
         .iter()
         .map(|p| read_volume(p))
         .collect::<Result<Vec<_>, _>>()?;
     let shape = arrays[0].dim();
-    for (a, p) in arrays.iter().zip(&args.densities).skip(1) {
+    for (a, p) in arrays.iter().zip(&densities).skip(1) {
         if a.dim() != shape {
             return Err(InputError::new(format!(
                 "volume {} has shape {:?} but {} has {:?}; all volumes must have the same shape",
                 p.display(),
                 a.dim(),
-                args.densities[0].display(),
+                densities[0].display(),
                 shape
             )));
         }
     }
-    let (nz, ny, nx) = shape;
-    let cell = args.size / nx.max(ny).max(nz) as f32;
-    let bounds = Domain::new(Vec3::ZERO, cell, [nx, ny, nz])?;
+    let bounds = render_box(shape, args.size, run.as_ref().map(|r| &r.geometry))?;
     let mut volumes = Vec::new();
-    for (i, (a, p)) in arrays.into_iter().zip(&args.densities).enumerate() {
+    for (i, (a, p)) in arrays.into_iter().zip(&densities).enumerate() {
         let color = match args.colors.get(i) {
             Some(c) => parse_color(c)?,
             None => look::default_color(i),
@@ -235,7 +304,7 @@ fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
     };
     smokelab::render::validate(&scene, &settings)?;
     Ok(RenderJob {
-        densities: args.densities.clone(),
+        densities,
         scene,
         settings,
         display: Display {
@@ -245,6 +314,67 @@ fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
         precision: args.precision,
     })
 }
+
+/// The volumes to render: the `--density` files, or else the run's gases at
+/// `--frame` (default: its last saved frame).
+fn volume_paths(args: &RenderArgs, run: Option<&RunFolder>) -> Result<Vec<PathBuf>, InputError> {
+    let Some(run) = run else {
+        if let Some(frame) = args.frame {
+            return Err(InputError::new(format!(
+                "--frame {frame} needs a run folder: render RUN_DIR --frame {frame}"
+            )));
+        }
+        if args.densities.is_empty() {
+            return Err(InputError::new(
+                "nothing to render: give --density FILE.npy (repeatable) or a run folder, render RUN_DIR",
+            ));
+        }
+        return Ok(args.densities.clone());
+    };
+    if !args.densities.is_empty() {
+        if let Some(frame) = args.frame {
+            return Err(InputError::new(format!(
+                "--frame {frame} picks the run's gases, but --density names the volumes; give one of them"
+            )));
+        }
+        return Ok(args.densities.clone());
+    }
+    let last = *run.frames.last().expect("a run folder has saved frames");
+    let frame = args.frame.unwrap_or(last);
+    if !run.frames.contains(&frame) {
+        let saved: Vec<String> = run.frames.iter().map(|f| f.to_string()).collect();
+        return Err(InputError::new(format!(
+            "--frame {frame} was not saved in {}; its saved frames are {}",
+            run.dir.display(),
+            saved.join(", ")
+        )));
+    }
+    Ok(run.gases.iter().map(|g| run.gas_path(g, frame)).collect())
+}
+
+/// The box of volumes of `shape` `(nz, ny, nx)`: with a run, its origin and
+/// extent (the cell scaled when the arrays have another resolution, e.g.
+/// `<gas>_fine_NNNN.npy`); `size` overrides the extent along the longest
+/// axis, which is 10 without a run.
+fn render_box(
+    shape: (usize, usize, usize),
+    size: Option<f32>,
+    run: Option<&VolumeGeometry>,
+) -> Result<Domain, InputError> {
+    let (nz, ny, nx) = shape;
+    let cells = nx.max(ny).max(nz) as f32;
+    let origin = run.map_or(Vec3::ZERO, |g| g.origin);
+    let cell = match (size, run) {
+        (Some(size), _) => size / cells,
+        (None, Some(g)) => g.cell * (g.dims.into_iter().max().unwrap_or(1) as f32 / cells),
+        (None, None) => DEFAULT_SIZE / cells,
+    };
+    Domain::new(origin, cell, [nx, ny, nz])
+}
+
+/// Edge length of the box along its longest axis without a run or `--size`:
+/// the hot/cold box.
+const DEFAULT_SIZE: f32 = 10.0;
 
 /// Read an f32 `(nz, ny, nx)` volume with finite values.
 fn read_volume(path: &Path) -> Result<Array3<f32>, InputError> {

@@ -16,7 +16,9 @@
 //! - `metrics.csv` — one row per step ([`MetricsRow`]), appended and flushed
 //!   as each step ends; the fine-sampled density measures are computed every
 //!   `metrics_every` steps and the last, `NaN` in between;
-//! - `manifest.json` — configuration, machine, commit, wall time, peak memory.
+//! - `manifest.json` — configuration, machine, commit, wall time, peak memory;
+//!   written at the start with `"status": "running"`, rewritten at the end
+//!   with `"status": "complete"`.
 //!
 //! Frame `N` is the state after `N` steps.
 
@@ -27,12 +29,13 @@ use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
+use crate::export::{write_frame_formats, FrameVolumes};
 use crate::frames::{FrameRecord, FrameRender};
 use crate::table::{field_names, Log};
 use smokelab::density::probe::{self, DensityMeasures, DensityProbe};
 use smokelab::density::DensityMode;
 use smokelab::grid::{BoxKind, ScalarGrid};
-use smokelab::io::vdb::{write_vdb, VdbOptions, VolumeGeometry};
+use smokelab::io::vdb::VolumeGeometry;
 use smokelab::io::vtk::PvdCollection;
 use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::metrics::{self, SpectralShare};
@@ -105,6 +108,8 @@ pub struct GridRecord {
 pub struct RunSummary {
     /// The grid the arrays are sampled on.
     pub grid: GridRecord,
+    /// The gases, in the run's order: each saved frame has `<gas>_NNNN.npy`.
+    pub gases: Vec<String>,
     /// Wall time of the whole run, seconds.
     pub wall_seconds: f64,
     /// Frames whose volumes were written.
@@ -322,6 +327,7 @@ pub fn run_with<C: Serialize>(
             layout: "MAC: u, v, w on the x-, y-, z-faces; densities at cell centres",
             boundary: sim.velocity.kind().name(),
         },
+        gases: sim.gases.iter().map(|g| g.name.clone()).collect(),
         wall_seconds: 0.0,
         saved_frames: vec![],
         previews: vec![],
@@ -346,6 +352,11 @@ pub fn run_with<C: Serialize>(
         final_measures: vec![],
         renders: vec![],
     };
+    // At the start: what runs, where its grid sits and that it has not finished.
+    io::write_json(
+        &opts.out.join("manifest.json"),
+        &Manifest::running(config, seed, serde_json::to_value(&summary)?),
+    )?;
     if let Some(b) = &sim.boundary {
         io::write_npy3(&opts.out.join("obstacle.npy"), b.level().data())?;
     }
@@ -546,10 +557,8 @@ pub fn write_frame(
     io::write_png(&preview_path(out, frame), &preview_image(sim))
 }
 
-/// The formats other tools open, for one saved frame: OpenVDB (Houdini,
-/// Blender) with one float grid per gas and the velocity as `vel`, and VTK
-/// image data (ParaView) listed in `run.pvd`. Both place cell `(i, j, k)` at
-/// its centre in world units.
+/// The formats other tools open, for one saved frame (see
+/// [`write_frame_formats`]).
 fn write_exchange(
     sim: &Simulation,
     out: &Path,
@@ -567,23 +576,14 @@ fn write_exchange(
         .map(|g| (g.name.as_str(), g.density().data().view()))
         .collect();
     let centred = sim.velocity.to_cell_centres();
-    let vectors = [("vel", centred.data().view())];
-    if vdb {
-        write_vdb(
-            &out.join(format!("frame_{frame:04}.vdb")),
-            &geometry,
-            &scalars,
-            &vectors,
-            VdbOptions::default(),
-        )?;
-    }
-    if let Some(pvd) = pvd {
-        let file = format!("frame_{frame:04}.vti");
-        // The f32 time as its shortest decimal (0.1, not 0.10000000149…).
-        let time: f64 = sim.time().to_string().parse()?;
-        pvd.write_frame(time, &file, &geometry, &scalars, &vectors)?;
-    }
-    Ok(())
+    let volumes = FrameVolumes {
+        frame,
+        time: sim.time(),
+        geometry: &geometry,
+        scalars: &scalars,
+        vectors: &[("vel", centred.data().view())],
+    };
+    write_frame_formats(out, &volumes, vdb, pvd)
 }
 
 /// Mid-plane slice of every gas in its display colour, obstacles in grey.

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::smokelab;
+use common::{small_hot_cold_run, smokelab};
 use ndarray::Array3;
 use std::path::Path;
 
@@ -156,5 +156,86 @@ fn run_with_render_writes_render_frames_and_rejects_bad_render_flags() {
         assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
         assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
         assert!(!bad.exists(), "{args:?} wrote {}", bad.display());
+    }
+}
+
+/// `render RUN_DIR` (or `--from RUN_DIR`) renders the run's gases at its
+/// last saved frame (or `--frame`) in the run's box, as `--density` with
+/// the run's `--size` would; an explicit `--size` overrides the run's.
+#[test]
+fn render_takes_the_box_and_the_gases_from_a_run_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A box of edge 5, not the default 10: the run's geometry must be used.
+    small_hot_cold_run(d, "r", &["--size", "5", "--save-every", "2"]);
+    let render = |name: &str, args: &[&str]| {
+        let mut full = vec!["render", "--image", "16x12", "--out", name];
+        full.extend_from_slice(args);
+        let o = smokelab(&full, d);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        std::fs::read(d.join(name).join("render.exr")).unwrap()
+    };
+    let files = |frame: &str| ["hot", "cold"].map(|g| format!("r/{g}_{frame}.npy"));
+    let [hot4, cold4] = files("0004");
+    let from_run = render("a", &["r"]);
+    assert_eq!(from_run, render("b", &["--from", "r", "--frame", "4"]));
+    let explicit = ["--density", &hot4, "--density", &cold4];
+    let sized = |size: &'static str| {
+        let mut a = explicit.to_vec();
+        a.extend(["--size", size]);
+        a
+    };
+    assert_eq!(from_run, render("c", &sized("5")));
+    let default_box = render("d", &explicit);
+    assert_ne!(from_run, default_box, "the run's box made no difference");
+    assert_eq!(default_box, render("e", &["r", "--size", "10"]));
+    let [hot2, cold2] = files("0002");
+    let mut frame2 = vec!["--density", &hot2, "--density", &cold2];
+    frame2.extend(["--size", "5"]);
+    assert_eq!(render("f", &["r", "--frame", "2"]), render("g", &frame2));
+    let m: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("a/manifest.json")).unwrap()).unwrap();
+    assert_eq!(
+        m["config"]["scene"]["bounds"]["cell"],
+        serde_json::json!(0.5)
+    );
+    assert_eq!(
+        m["config"]["densities"],
+        serde_json::json!(["r/hot_0004.npy", "r/cold_0004.npy"])
+    );
+}
+
+/// Bad run folders and frames: exit 2, one line naming the value, nothing written.
+#[test]
+fn render_from_a_run_rejects_bad_folders_and_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    small_hot_cold_run(d, "r", &["--save-every", "2"]);
+    for (args, needle) in [
+        (&["r", "--frame", "3"][..], "its saved frames are 2, 4"),
+        (&["missing"][..], "run folder missing cannot be read"),
+        (&["r", "--from", "r"][..], "two run folders"),
+        (
+            &["--frame", "2", "--density", "r/hot_0002.npy"][..],
+            "--frame 2 needs a run folder",
+        ),
+        (
+            &["r", "--frame", "2", "--density", "r/hot_0002.npy"][..],
+            "give one of them",
+        ),
+        (&[][..], "nothing to render"),
+    ] {
+        let mut full = vec!["render", "--out", "out"];
+        full.extend_from_slice(args);
+        let o = smokelab(&full, d);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!d.join("out").exists(), "{args:?} wrote out");
     }
 }

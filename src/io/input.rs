@@ -6,7 +6,7 @@ use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::Path;
 
-use ndarray::Array3;
+use ndarray::{Array, Array3, Array4, Dimension};
 use ndarray_npy::ReadNpyExt;
 
 use crate::error::InputError;
@@ -98,10 +98,24 @@ fn npy_shape(header: &[u8], file_len: u64) -> Result<Vec<usize>, String> {
 /// Read an f32 `.npy` volume of shape `(nz, ny, nx)`, checking the file and
 /// its header before allocating.
 pub fn read_npy3(path: &Path) -> Result<Array3<f32>, InputError> {
+    read_checked(path, "(nz, ny, nx)")
+}
+
+/// Read an f32 `.npy` vector volume of shape `(nz, ny, nx, 3)` (as `smokelab
+/// run` writes `vel_NNNN.npy`), checking the file and its header before
+/// allocating.
+pub fn read_npy4(path: &Path) -> Result<Array4<f32>, InputError> {
+    read_checked(path, "(nz, ny, nx, 3)")
+}
+
+/// Read an f32 `.npy` array with as many axes as `shape` (e.g.
+/// `"(nz, ny, nx)"`) names, after checking the file is regular and its
+/// header matches its length.
+fn read_checked<D: Dimension>(path: &Path, shape: &str) -> Result<Array<f32, D>, InputError> {
     let file = open_regular(path, "volume")?;
     let bad = |why: String| {
         InputError::new(format!(
-            "volume {}: {why}; it must be an f32 .npy array of shape (nz, ny, nx)",
+            "volume {}: {why}; it must be an f32 .npy array of shape {shape}",
             path.display()
         ))
     };
@@ -112,11 +126,11 @@ pub fn read_npy3(path: &Path) -> Result<Array3<f32>, InputError> {
         .read_exact(&mut head)
         .map_err(|e| bad(e.to_string()))?;
     let dims = npy_shape(&head, file_len).map_err(bad)?;
-    if dims.len() != 3 {
+    if Some(dims.len()) != D::NDIM {
         return Err(bad(format!("it has {} axes", dims.len())));
     }
     let file = open_regular(path, "volume")?;
-    Array3::<f32>::read_npy(BufReader::new(file)).map_err(|e| bad(e.to_string()))
+    Array::<f32, D>::read_npy(BufReader::new(file)).map_err(|e| bad(e.to_string()))
 }
 
 #[cfg(test)]

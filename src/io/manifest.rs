@@ -42,9 +42,23 @@ impl Machine {
 /// wherever the run is started.
 pub const BUILD_COMMIT: &str = env!("SMOKELAB_COMMIT");
 
+/// Whether the work a manifest describes has finished: a run writes its
+/// manifest `running` at the start and `complete` at the end, so a manifest
+/// that still says `running` belongs to a run that was stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    /// Started, not finished (yet).
+    Running,
+    /// Finished; every output is written.
+    Complete,
+}
+
 /// The manifest written beside every run's outputs.
 #[derive(Clone, Debug, Serialize)]
 pub struct Manifest<C: Serialize> {
+    /// Whether the work has finished.
+    pub status: Status,
     /// smokelab version.
     pub version: &'static str,
     /// git commit of the build (see [`BUILD_COMMIT`]).
@@ -66,9 +80,11 @@ pub struct Manifest<C: Serialize> {
 }
 
 impl<C: Serialize> Manifest<C> {
-    /// A manifest for `config`, filled with the current machine and commit.
+    /// The manifest of finished work on `config`, filled with the current
+    /// machine and commit.
     pub fn new(config: C, seed: u64, wall_seconds: f64, extra: serde_json::Value) -> Self {
         Self {
+            status: Status::Complete,
             version: env!("CARGO_PKG_VERSION"),
             commit: BUILD_COMMIT.to_string(),
             command: std::env::args().collect::<Vec<_>>().join(" "),
@@ -78,6 +94,14 @@ impl<C: Serialize> Manifest<C> {
             wall_seconds,
             peak_memory_bytes: crate::timing::peak_rss_bytes(),
             extra,
+        }
+    }
+
+    /// The manifest of work on `config` that has just started.
+    pub fn running(config: C, seed: u64, extra: serde_json::Value) -> Self {
+        Self {
+            status: Status::Running,
+            ..Self::new(config, seed, 0.0, extra)
         }
     }
 }

@@ -1,8 +1,11 @@
 //! Output: whole files only.
 //!
-//! Every writer here writes to `<name>.tmp` in the same folder and renames it
-//! into place, so a killed run leaves finished files intact and never a
-//! half-written one.
+//! Every writer here writes to a temporary file in the same folder,
+//! `<name>.<pid>-<n>.tmp` (unique to the process and the write), and renames
+//! it into place, so a killed run leaves finished files intact and never a
+//! half-written one under a real name. A temporary file is removed when its
+//! write fails, and [`remove_temporary_files`] (the application calls it on
+//! Ctrl-C) removes those still being written.
 
 pub mod input;
 pub mod manifest;
@@ -13,29 +16,109 @@ pub mod vtk;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use ndarray::{Array3, Array4};
 use ndarray_npy::WriteNpyExt;
 
-/// Write a file through a temporary name and an atomic rename.
+/// The temporary files being written now; `None` once
+/// [`remove_temporary_files`] has run, after which no write may start.
+static TEMPORARY_FILES: Mutex<Option<Vec<PathBuf>>> = Mutex::new(Some(Vec::new()));
+
+/// Numbers the temporary files of this process.
+static NEXT_TEMPORARY: AtomicU64 = AtomicU64::new(0);
+
+/// A temporary file being written: listed in [`TEMPORARY_FILES`] while it
+/// exists, removed on drop unless renamed into place.
+struct TemporaryFile {
+    path: PathBuf,
+    renamed: bool,
+}
+
+impl TemporaryFile {
+    /// Create `<path>.<pid>-<n>.tmp` and list it.
+    fn create(path: &Path) -> Result<(Self, File)> {
+        let mut name = path.as_os_str().to_owned();
+        let n = NEXT_TEMPORARY.fetch_add(1, Ordering::Relaxed);
+        name.push(format!(".{}-{n}.tmp", std::process::id()));
+        let tmp = PathBuf::from(name);
+        let mut live = TEMPORARY_FILES.lock().unwrap_or_else(|e| e.into_inner());
+        let Some(live) = live.as_mut() else {
+            bail!("interrupted: not writing {}", path.display());
+        };
+        let file =
+            File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+        live.push(tmp.clone());
+        Ok((
+            Self {
+                path: tmp,
+                renamed: false,
+            },
+            file,
+        ))
+    }
+
+    /// Rename the finished file to `path`.
+    fn rename_to(mut self, path: &Path) -> Result<()> {
+        std::fs::rename(&self.path, path)
+            .with_context(|| format!("cannot rename {} into place", self.path.display()))?;
+        self.renamed = true;
+        Ok(())
+    }
+}
+
+impl Drop for TemporaryFile {
+    fn drop(&mut self) {
+        if !self.renamed {
+            let _ = std::fs::remove_file(&self.path);
+        }
+        if let Some(live) = TEMPORARY_FILES
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .as_mut()
+        {
+            live.retain(|p| p != &self.path);
+        }
+    }
+}
+
+/// Remove every temporary file still being written and refuse new writes
+/// from then on; returns how many were removed. For an interrupt handler:
+/// afterwards only whole files remain, and the process should exit.
+pub fn remove_temporary_files() -> usize {
+    let live = TEMPORARY_FILES
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .take()
+        .unwrap_or_default();
+    live.iter()
+        .filter(|p| std::fs::remove_file(p).is_ok())
+        .count()
+}
+
+/// Whether [`remove_temporary_files`] has run: writes fail from then on,
+/// and a failure may be its doing rather than an error of its own.
+pub fn interrupted() -> bool {
+    TEMPORARY_FILES
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .is_none()
+}
+
+/// Write a file through a temporary name and an atomic rename; the
+/// temporary file is removed if anything fails.
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
 ) -> Result<()> {
-    let tmp: PathBuf = {
-        let mut s = path.as_os_str().to_owned();
-        s.push(".tmp");
-        s.into()
-    };
-    let file = File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
+    let (tmp, file) = TemporaryFile::create(path)?;
     let mut w = BufWriter::new(file);
     write(&mut w)?;
     w.flush()?;
     w.into_inner().map_err(|e| e.into_error())?.sync_data().ok();
-    std::fs::rename(&tmp, path)
-        .with_context(|| format!("cannot rename {} into place", tmp.display()))?;
-    Ok(())
+    tmp.rename_to(path)
 }
 
 /// Write a scalar volume as `.npy` (f32, shape `(nz, ny, nx)`).
@@ -111,4 +194,50 @@ pub fn check_output_dir(dir: &Path) -> Result<(), crate::error::InputError> {
 pub fn create_output_dir(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("cannot create output folder {}", dir.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(dir: &Path) -> Vec<String> {
+        let mut n: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
+        n.sort();
+        n
+    }
+
+    #[test]
+    fn temporary_files_are_unique_and_removed_when_the_write_fails() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.json");
+        let mut seen = Vec::new();
+        let e = write_atomic(&path, |_| {
+            seen.push(names(dir.path()));
+            bail!("the writer failed")
+        })
+        .unwrap_err();
+        assert_eq!(e.to_string(), "the writer failed");
+        write_atomic(&path, |w| {
+            seen.push(names(dir.path()));
+            Ok(w.write_all(b"{}")?)
+        })
+        .unwrap();
+        // Each write had its own temporary name, with this process's id.
+        let pid = std::process::id();
+        assert_eq!(seen.len(), 2);
+        assert!(
+            seen[0][0].starts_with(&format!("a.json.{pid}-")),
+            "{seen:?}"
+        );
+        assert!(
+            seen[0][0].ends_with(".tmp") && seen[0] != seen[1],
+            "{seen:?}"
+        );
+        // The failed write left nothing; the good one only its file.
+        assert_eq!(names(dir.path()), ["a.json"]);
+        assert_eq!(std::fs::read(&path).unwrap(), b"{}");
+    }
 }

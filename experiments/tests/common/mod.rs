@@ -11,3 +11,15 @@ pub fn smokelab(args: &[&str], cwd: &Path) -> Output {
         .output()
         .expect("run smokelab")
 }
+
+/// Run `smokelab run hot-cold` at 10³ for 4 frames, quietly, into `cwd/out`,
+/// with `extra` flags (e.g. `--save-every 2`), and check that it succeeded.
+// Each test binary compiles this module; not every one runs a scenario.
+#[allow(dead_code)]
+pub fn small_hot_cold_run(cwd: &Path, out: &str, extra: &[&str]) {
+    let mut args = vec!["run", "hot-cold", "--res", "10", "--frames", "4"];
+    args.extend_from_slice(&["--quiet", "--out", out]);
+    args.extend_from_slice(extra);
+    let o = smokelab(&args, cwd);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

@@ -1,0 +1,88 @@
+//! A run's manifest says whether it finished, and an interrupted run leaves
+//! only whole files (issue 18: killed runs used to leave `.tmp` files, and
+//! the manifest appeared only at the end).
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::small_hot_cold_run;
+
+fn manifest(dir: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn a_finished_run_says_complete() {
+    let dir = tempfile::tempdir().unwrap();
+    small_hot_cold_run(dir.path(), "r", &["--save-every", "2"]);
+    let m = manifest(&dir.path().join("r"));
+    assert_eq!(m["status"], "complete");
+    assert_eq!(m["extra"]["gases"], serde_json::json!(["hot", "cold"]));
+}
+
+/// Ctrl-C in the middle of a run that writes every frame in every format:
+/// exit 130, the manifest written at the start still says `running` (with
+/// the grid), no temporary file is left and every volume reads whole.
+#[test]
+fn an_interrupted_run_says_running_and_leaves_only_whole_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let child = Command::new(env!("CARGO_BIN_EXE_smokelab"))
+        .args([
+            "run",
+            "hot-cold",
+            "--res",
+            "24",
+            "--frames",
+            "100000",
+            "--save-every",
+            "1",
+            "--vdb",
+            "--paraview",
+            "--quiet",
+            "--out",
+        ])
+        .arg(&out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while !out.join("hot_0003.npy").exists() {
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no third frame after two minutes"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let m = manifest(&out);
+    assert_eq!(m["status"], "running");
+    assert_eq!(m["extra"]["grid"]["dims"], serde_json::json!([24, 24, 24]));
+    // SAFETY: sending a signal to our own child process has no preconditions.
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    assert_eq!(manifest(&out)["status"], "running");
+    let mut volumes = 0;
+    for entry in std::fs::read_dir(&out).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(!name.ends_with(".tmp"), "{name} was left behind");
+        if name.starts_with("vel_") {
+            ndarray_npy::read_npy::<_, ndarray::Array4<f32>>(&path)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            volumes += 1;
+        } else if name.ends_with(".npy") {
+            ndarray_npy::read_npy::<_, ndarray::Array3<f32>>(&path)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            volumes += 1;
+        }
+    }
+    // Frames 1 and 2 whole (hot, cold, u, v, w, vel), and frame 3's hot.
+    assert!(volumes > 2 * 6, "only {volumes} volumes");
+}
