@@ -122,15 +122,17 @@ fn experiment_06_6_smoke_writes_figure_and_data() {
     let e = dir.path().join("e");
     for f in [
         "fig_6_6.png",
+        "retained.png",
+        "retained.svg",
         "data.csv",
-        "quick-reflect/metrics.csv",
-        "quick-sticky/manifest.json",
-        "sl-reflect/obstacle.npy",
+        "sl-gridless-reflect/metrics.csv",
+        "quick-gridded-sticky/manifest.json",
+        "sl-gridded-reflect-notes/obstacle.npy",
     ] {
         assert!(e.join(f).is_file(), "missing {f}");
     }
     let data = std::fs::read_to_string(e.join("data.csv")).unwrap();
-    assert_eq!(data.lines().count(), 5, "{data}");
+    assert_eq!(data.lines().count(), 8, "{data}");
 }
 
 /// `run slab-box --density gridless|selma` runs (exact obstacles by
