@@ -181,25 +181,37 @@ pub fn advect_faces(
     }
     let sampler = vel.sampler();
     let dt_cells = dt / vel.domain().cell;
-    for a in 0..3 {
-        let dims = dst.face_dims(a);
-        let data = src.slice(a);
-        dst.slice_mut(a)
-            .par_chunks_mut(dims[0] * dims[1])
-            .enumerate()
-            .for_each(|(k, out)| {
-                for j in 0..dims[1] {
-                    for i in 0..dims[0] {
-                        let mut c = Vec3::new(i as f32, j as f32, k as f32);
-                        c[a] -= 0.5;
-                        let u0 = sampler.at_face(a, [i, j, k]);
-                        let g = departure(sampler, c, u0, dt_cells, backtrace);
-                        out[j * dims[0] + i] = sampler.component_of(a, data, g);
-                    }
-                }
-            });
-    }
+    let dims: [[usize; 3]; 3] = std::array::from_fn(|a| dst.face_dims(a));
+    let trace = (sampler, dt_cells, backtrace);
+    face_sweep::<0>(trace, src.slice(0), dst.slice_mut(0), dims[0]);
+    face_sweep::<1>(trace, src.slice(1), dst.slice_mut(1), dims[1]);
+    face_sweep::<2>(trace, src.slice(2), dst.slice_mut(2), dims[2]);
     dst.zero_walls();
+}
+
+/// Component `A` of [`advect_faces`]: `out[f] = data(x_d(f))` for every
+/// face `f` of the lattice `dims`, `x_d` traced back from the face centre
+/// through `(velocity, Δt/Δx, backtrace)`. The axis is a constant so that
+/// the face's offset and the component's lattice fold into each sweep.
+fn face_sweep<const A: usize>(
+    (vel, dt_cells, backtrace): (FaceSampler, f32, Backtrace),
+    data: &[f32],
+    out: &mut [f32],
+    dims: [usize; 3],
+) {
+    out.par_chunks_mut(dims[0] * dims[1])
+        .enumerate()
+        .for_each(|(k, slab)| {
+            for (j, row) in slab.chunks_exact_mut(dims[0]).enumerate() {
+                for (i, o) in row.iter_mut().enumerate() {
+                    let mut c = Vec3::new(i as f32, j as f32, k as f32);
+                    c[A] -= 0.5;
+                    let u0 = vel.at_face(A, [i, j, k]);
+                    let g = departure(vel, c, u0, dt_cells, backtrace);
+                    *o = vel.component_of(A, data, g);
+                }
+            }
+        });
 }
 
 /// One semi-Lagrangian step for everything that moves with `vel`:
