@@ -111,7 +111,13 @@ pub struct FaceSampler<'a> {
     wrap: Wrap,
 }
 
-impl FaceSampler<'_> {
+impl<'a> FaceSampler<'a> {
+    /// The component slices `[u, v, w]` (flat `[z][y][x]`) and their lattice
+    /// sizes `[mx, my, mz]`, for kernels that index the lattices themselves.
+    pub(crate) fn lattices(&self) -> ([&'a [f32]; 3], [[usize; 3]; 3]) {
+        (self.data, self.dims)
+    }
+
     /// The velocity at cell-centre grid coordinates `g` (each component
     /// trilinear on its own lattice, as [`FaceGrid::sample_grid_coords`]).
     #[inline(always)]
