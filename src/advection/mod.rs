@@ -12,6 +12,8 @@
 //! density and the velocity itself move through the same prepared step.
 
 mod closed_faces;
+#[cfg(target_arch = "x86_64")]
+mod face_simd;
 mod lattice;
 pub mod quick;
 pub mod semi_lagrangian;

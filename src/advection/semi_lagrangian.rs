@@ -25,6 +25,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+#[cfg(target_arch = "x86_64")]
+use super::face_simd;
 use super::Backtrace;
 use crate::domain::Domain;
 use crate::grid::face::FaceSampler;
@@ -181,25 +183,85 @@ pub fn advect_faces(
     }
     let sampler = vel.sampler();
     let dt_cells = dt / vel.domain().cell;
-    for a in 0..3 {
-        let dims = dst.face_dims(a);
-        let data = src.slice(a);
-        dst.slice_mut(a)
-            .par_chunks_mut(dims[0] * dims[1])
-            .enumerate()
-            .for_each(|(k, out)| {
-                for j in 0..dims[1] {
-                    for i in 0..dims[0] {
-                        let mut c = Vec3::new(i as f32, j as f32, k as f32);
-                        c[a] -= 0.5;
-                        let u0 = sampler.at_face(a, [i, j, k]);
-                        let g = departure(sampler, c, u0, dt_cells, backtrace);
-                        out[j * dims[0] + i] = sampler.component_of(a, data, g);
+    let dims: [[usize; 3]; 3] = std::array::from_fn(|a| dst.face_dims(a));
+    let trace = (sampler, dt_cells, backtrace);
+    let cells = vel.domain().dims;
+    face_sweep::<0>(trace, src.slice(0), dst.slice_mut(0), dims[0], cells);
+    face_sweep::<1>(trace, src.slice(1), dst.slice_mut(1), dims[1], cells);
+    face_sweep::<2>(trace, src.slice(2), dst.slice_mut(2), dims[2], cells);
+    dst.zero_walls();
+}
+
+/// The AVX2 kernel's view of the velocity when this CPU has AVX2 and the
+/// lattices fit its 32-bit indices; `None` otherwise (scalar sweep only).
+#[cfg(target_arch = "x86_64")]
+fn simd_lattices(vel: FaceSampler) -> Option<face_simd::Lattices> {
+    let (data, dims) = vel.lattices();
+    (face_simd::available() && face_simd::fits(&dims)).then_some(face_simd::Lattices { data, dims })
+}
+
+/// Component `A` of [`advect_faces`]: `out[f] = data(x_d(f))` for every
+/// face `f` of the lattice `dims`, `x_d` traced back from the face centre
+/// through `(velocity, Δt/Δx, backtrace)`. The axis is a constant so that
+/// the face's offset and the component's lattice fold into each sweep.
+fn face_sweep<const A: usize>(
+    (vel, dt_cells, backtrace): (FaceSampler, f32, Backtrace),
+    data: &[f32],
+    out: &mut [f32],
+    dims: [usize; 3],
+    cells: [usize; 3],
+) {
+    assert_eq!(
+        data.len(),
+        dims.iter().product::<usize>(),
+        "advect_faces: lattice"
+    );
+    #[cfg(target_arch = "x86_64")]
+    let simd = simd_lattices(vel);
+    let scalar = |[i, j, k]: [usize; 3]| {
+        let mut c = Vec3::new(i as f32, j as f32, k as f32);
+        c[A] -= 0.5;
+        let u0 = vel.at_face(A, [i, j, k]);
+        let g = departure(vel, c, u0, dt_cells, backtrace);
+        vel.component_of(A, data, g)
+    };
+    out.par_chunks_mut(dims[0] * dims[1])
+        .enumerate()
+        .for_each(|(k, slab)| {
+            for (j, row) in slab.chunks_exact_mut(dims[0]).enumerate() {
+                let mut i = 0;
+                // Groups of eight faces away from the box's edges (the
+                // kernel's precondition), while they stay inside.
+                #[cfg(target_arch = "x86_64")]
+                if let Some(lat) = simd
+                    .filter(|_| (1..cells[1] - 1).contains(&j) && (1..cells[2] - 1).contains(&k))
+                {
+                    row[0] = scalar([0, j, k]);
+                    i = 1;
+                    while i + 9 <= cells[0] {
+                        // SAFETY: AVX2 and lattice sizes checked by
+                        // simd_lattices; `data` has A's lattice length
+                        // (asserted above); 1 ≤ i, i + 8 ≤ n_x − 1 and j, k
+                        // inside as faces8 requires.
+                        let got = unsafe {
+                            face_simd::faces8::<A>(lat, data, [i, j, k], dt_cells, backtrace)
+                        };
+                        match got {
+                            Some(v) => row[i..i + 8].copy_from_slice(&v),
+                            None => {
+                                for (n, o) in row[i..i + 8].iter_mut().enumerate() {
+                                    *o = scalar([i + n, j, k]);
+                                }
+                            }
+                        }
+                        i += 8;
                     }
                 }
-            });
-    }
-    dst.zero_walls();
+                for (n, o) in row[i..].iter_mut().enumerate() {
+                    *o = scalar([i + n, j, k]);
+                }
+            }
+        });
 }
 
 /// One semi-Lagrangian step for everything that moves with `vel`:

@@ -106,10 +106,18 @@ impl fmt::Display for BoxKind {
 pub struct FaceSampler<'a> {
     data: [&'a [f32]; 3],
     dims: [[usize; 3]; 3],
+    /// Cells of the domain along each axis.
+    cells: [usize; 3],
     wrap: Wrap,
 }
 
-impl FaceSampler<'_> {
+impl<'a> FaceSampler<'a> {
+    /// The component slices `[u, v, w]` (flat `[z][y][x]`) and their lattice
+    /// sizes `[mx, my, mz]`, for kernels that index the lattices themselves.
+    pub(crate) fn lattices(&self) -> ([&'a [f32]; 3], [[usize; 3]; 3]) {
+        (self.data, self.dims)
+    }
+
     /// The velocity at cell-centre grid coordinates `g` (each component
     /// trilinear on its own lattice, as [`FaceGrid::sample_grid_coords`]).
     #[inline(always)]
@@ -123,10 +131,19 @@ impl FaceSampler<'_> {
 
     /// `data`, laid out like component `a`'s lattice, interpolated at
     /// cell-centre grid coordinates `g`.
+    ///
+    /// A point whose stencil lies inside the lattice takes [`trilinear_inside`]
+    /// (no wrap or clamp, one length check); others the general [`Stencil`].
+    /// Both do the same floating-point operations in the same order, so the
+    /// value is the same to the bit.
     #[inline(always)]
     pub fn component_of(&self, a: usize, data: &[f32], mut g: Vec3) -> f32 {
         g[a] += 0.5;
-        Stencil::new(g, self.dims[a], self.wrap).apply(data)
+        let d = self.dims[a];
+        match trilinear_inside(data, d, g) {
+            Some(v) => v,
+            None => Stencil::new(g, d, self.wrap).apply(data),
+        }
     }
 
     /// The velocity at the centre of cell `c`: each component the mean of
@@ -145,8 +162,29 @@ impl FaceSampler<'_> {
     /// other component `b` the mean of the four b-faces around it (below and
     /// at `f` along `a`, at and above `f` along `b`), wrapped or clamped as
     /// [`Self::at`] does — its value there.
+    ///
+    /// A face at least one face from every edge of the box
+    /// (`1 ≤ f ≤ n − 2` along each axis, `n` the cell count) needs no wrap
+    /// or clamp; it sums the same four faces in the same order.
     #[inline(always)]
     pub fn at_face(&self, a: usize, f: [usize; 3]) -> Vec3 {
+        if (0..3).all(|x| f[x] >= 1 && f[x] + 2 <= self.cells[x]) {
+            return Vec3::from_array(std::array::from_fn(|b| {
+                let d = self.dims[b];
+                let here = index(d, f);
+                if b == a {
+                    return self.data[a][here];
+                }
+                // In b's lattice: the face below along a, and the next along b.
+                let (sa, sb) = (stride(d, a), stride(d, b));
+                let data = self.data[b];
+                let mut sum = 0.0;
+                for p in [here - sa, here - sa + sb, here, here + sb] {
+                    sum += data[p];
+                }
+                0.25 * sum
+            }));
+        }
         Vec3::from_array(std::array::from_fn(|b| {
             if b == a {
                 return self.data[a][index(self.dims[a], f)];
@@ -177,6 +215,61 @@ impl FaceSampler<'_> {
 #[inline(always)]
 fn index(d: [usize; 3], c: [usize; 3]) -> usize {
     (c[2] * d[1] + c[1]) * d[0] + c[0]
+}
+
+/// Linear distance between neighbours along `axis` in a lattice `[mx, my, mz]`.
+#[inline(always)]
+fn stride(d: [usize; 3], axis: usize) -> usize {
+    match axis {
+        0 => 1,
+        1 => d[0],
+        _ => d[0] * d[1],
+    }
+}
+
+/// `⌊g⌋` and the fraction `g − ⌊g⌋` along an axis of `n` lattice points
+/// when both stencil points `⌊g⌋` and `⌊g⌋ + 1` lie inside `0..n`
+/// (`0 ≤ ⌊g⌋ ≤ n − 2`), else `None`. The floor is the truncation plus a
+/// correction of [`Stencil`]'s, with the same fraction.
+#[inline(always)]
+fn floor_inside(g: f32, n: usize) -> Option<(usize, f32)> {
+    let t = g as i32;
+    let f = if (t as f32) > g { t - 1 } else { t };
+    let inside = usize::try_from(f).is_ok_and(|i| i + 1 < n);
+    inside.then_some((f as usize, g - f as f32))
+}
+
+/// Trilinear interpolation of `data` (laid out like a lattice `d = [mx, my,
+/// mz]`) at lattice coordinates `g`, when its whole stencil lies inside the
+/// lattice; `None` when it would wrap or clamp. The corners, weights and
+/// sum are [`Stencil::new`] and [`Stencil::apply`]'s, in the same order, so
+/// where both apply the value is identical to the bit.
+///
+/// # Panics
+/// If `data` is shorter than the lattice.
+#[inline(always)]
+fn trilinear_inside(data: &[f32], d: [usize; 3], g: Vec3) -> Option<f32> {
+    let (x, tx) = floor_inside(g.x, d[0])?;
+    let (y, ty) = floor_inside(g.y, d[1])?;
+    let (z, tz) = floor_inside(g.z, d[2])?;
+    let (nx, nxy) = (d[0], d[0] * d[1]);
+    assert!(
+        data.len() >= nxy * d[2],
+        "trilinear: data shorter than its lattice"
+    );
+    let r = (z * d[1] + y) * nx + x;
+    let (wx, wy, wz) = ([1.0 - tx, tx], [1.0 - ty, ty], [1.0 - tz, tz]);
+    let mut acc = 0.0;
+    // Corner c = (c & 1, c >> 1 & 1, c >> 2) along (x, y, z).
+    for c in 0..8 {
+        let (cx, cy, cz) = (c & 1, c >> 1 & 1, c >> 2);
+        let weight = wx[cx] * wy[cy] * wz[cz];
+        // SAFETY: x ≤ mx − 2, y ≤ my − 2, z ≤ mz − 2 (floor_inside), so the
+        // largest index, r + nxy + nx + 1 = ((z + 1)·my + y + 1)·mx + x + 1,
+        // is below mx·my·mz ≤ data.len() (asserted above).
+        acc += weight * unsafe { *data.get_unchecked(r + cx + cy * nx + cz * nxy) };
+    }
+    Some(acc)
 }
 
 /// ndarray shape `(mz, my, mx)` of a lattice `[mx, my, mz]`.
@@ -410,6 +503,7 @@ impl FaceGrid {
         FaceSampler {
             data: [self.slice(0), self.slice(1), self.slice(2)],
             dims: self.dims,
+            cells: self.domain.dims,
             wrap: self.kind.wrap(),
         }
     }
