@@ -402,11 +402,11 @@ impl Simulation {
         if let Err(e) = self.pressure.diffuse(&mut self.velocity, p.viscosity, p.dt) {
             panic!("{e}");
         }
-        match &mut self.obstacle_projection {
-            Some(c) => {
-                c.project(&mut self.velocity, &mut self.pressure);
+        match (&mut self.obstacle_projection, &self.boundary) {
+            (Some(c), Some(b)) => {
+                c.project(&mut self.velocity, b.open_faces(), &mut self.pressure);
             }
-            None => self.pressure.project(&mut self.velocity),
+            _ => self.pressure.project(&mut self.velocity),
         }
     }
 

@@ -56,7 +56,6 @@ pub struct CgReport {
 #[derive(Clone)]
 pub struct ObstacleProjection {
     domain: Domain,
-    faces: OpenFaces,
     /// The pressure, kept between steps (zero at dry cells).
     p: Vec<f64>,
     r: Vec<f64>,
@@ -69,7 +68,7 @@ pub struct ObstacleProjection {
 
 impl ObstacleProjection {
     /// Buffers for the open faces `faces` (periodic box), stopping at the
-    /// relative residual `tolerance`.
+    /// relative residual `tolerance`; [`Self::project`] takes the same faces.
     ///
     /// # Panics
     /// If `tolerance` is not in `(0, 1)`.
@@ -79,7 +78,6 @@ impl ObstacleProjection {
         let zeros = vec![0.0; domain.len()];
         Self {
             domain,
-            faces: faces.clone(),
             p: zeros.clone(),
             r: zeros.clone(),
             z: zeros.clone(),
@@ -101,16 +99,22 @@ impl ObstacleProjection {
         &self.p
     }
 
-    /// Make the fluxes `A u` divergence-free in every wet cell: solve
-    /// `K p = −D(A u*)` and set `u −= G p` on the open faces. Closed faces
-    /// are left alone (see [`OpenFaces::extend`]). `fast` must be the
+    /// Make the fluxes `A u` divergence-free in every wet cell of `faces`:
+    /// solve `K p = −D(A u*)` and set `u −= G p` on the open faces. Closed
+    /// faces are left alone (see [`OpenFaces::extend`]). `fast` must be the
     /// obstacle-free solver of the same domain, the preconditioner.
     ///
     /// # Panics
-    /// If `u` or `fast` is not on this domain's periodic grid.
-    pub fn project(&mut self, u: &mut FaceGrid, fast: &mut PressureSolver) -> CgReport {
+    /// If `u`, `faces` or `fast` is not on this domain's periodic grid.
+    pub fn project(
+        &mut self,
+        u: &mut FaceGrid,
+        faces: &OpenFaces,
+        fast: &mut PressureSolver,
+    ) -> CgReport {
         assert_eq!(u.domain(), &self.domain, "obstacles: another domain");
         assert_eq!(u.kind(), BoxKind::Periodic, "obstacles: closed box");
+        assert_eq!(faces.domain(), &self.domain, "open faces: another domain");
         assert_eq!(
             fast.domain(),
             &self.domain,
@@ -118,11 +122,11 @@ impl ObstacleProjection {
         );
         assert_eq!(fast.kind(), BoxKind::Periodic, "preconditioner: closed box");
         // b = −D(A u*), kept in z while the residual is formed.
-        self.faces.flux_divergence(u, &mut self.z);
+        faces.flux_divergence(u, &mut self.z);
         self.z.par_iter_mut().for_each(|b| *b = -*b);
         let b_norm = dot(&self.z, &self.z).sqrt();
         // r = b − K p (warm start).
-        apply(&self.faces, &self.p, &mut self.q);
+        apply(faces, &self.p, &mut self.q);
         self.r
             .par_iter_mut()
             .zip(self.z.par_iter().zip(self.q.par_iter()))
@@ -136,11 +140,11 @@ impl ObstacleProjection {
             },
         };
         if report.residual > self.tolerance {
-            self.precondition(fast);
+            self.precondition(faces, fast);
             self.d.copy_from_slice(&self.z);
             let mut rz = dot(&self.r, &self.z);
             while report.iterations < MAX_ITERATIONS && report.residual > self.tolerance {
-                apply(&self.faces, &self.d, &mut self.q);
+                apply(faces, &self.d, &mut self.q);
                 let dq = dot(&self.d, &self.q);
                 if dq <= 0.0 {
                     break;
@@ -156,7 +160,7 @@ impl ObstacleProjection {
                     });
                 report.iterations += 1;
                 report.residual = dot(&self.r, &self.r).sqrt() / b_norm;
-                self.precondition(fast);
+                self.precondition(faces, fast);
                 let rz_next = dot(&self.r, &self.z);
                 let beta = rz_next / rz;
                 rz = rz_next;
@@ -166,17 +170,17 @@ impl ObstacleProjection {
                     .for_each(|(d, &z)| *d = z + beta * *d);
             }
         }
-        subtract_open_gradient(u, &self.faces, &self.p);
+        subtract_open_gradient(u, faces, &self.p);
         self.report = report;
         report
     }
 
     /// `z = −L⁻¹ r` on the wet cells, zero on the dry ones.
-    fn precondition(&mut self, fast: &mut PressureSolver) {
+    fn precondition(&mut self, faces: &OpenFaces, fast: &mut PressureSolver) {
         fast.solve_poisson_f64(&self.r, &mut self.z);
         self.z
             .par_iter_mut()
-            .zip(self.faces.wet().par_iter())
+            .zip(faces.wet().par_iter())
             .for_each(|(z, &w)| *z = if w { -*z } else { 0.0 });
     }
 }
