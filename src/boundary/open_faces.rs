@@ -19,9 +19,11 @@
 //! semi-Lagrangian advection reads the plain velocity, whose divergence in a
 //! cut cell is of the order of the velocity's tangential gradient. In
 //! `run slab-box --res 32 --advection sl` the gas mass grew to 243 % of what
-//! was injected by step 200; with voxelized faces it ends at 108 % (QUICK:
-//! 100.000 %). The difference matters, in favour of whole faces; a
-//! conservative advection of cut-cell volumes would be needed first.
+//! was injected by step 200; with whole faces (open where the face's centre
+//! is in the fluid) it ended at 108 %, both with the ghost densities
+//! described below (QUICK: 100.000 %); the final form keeps 103 %. The
+//! difference matters, in favour of whole faces; a conservative advection of
+//! cut-cell volumes would be needed first.
 //!
 //! # Closed faces
 //! A closed face beside a wet cell (a *surface* face) holds the velocity 0:
