@@ -295,7 +295,6 @@ impl Boundary {
         Leak {
             div_fluid: self.faces_open.flux_divergence_stats(vel),
             closed_flux_max: self.faces_open.closed_flux_max(vel),
-            u_rms: vel.rms(),
             mass_fluid: total - inside,
             mass_inside: inside,
             mass_fraction: if total > 0.0 { inside / total } else { 0.0 },
@@ -310,8 +309,6 @@ pub struct Leak {
     pub div_fluid: RmsMax,
     /// Largest speed through a closed face beside the fluid.
     pub closed_flux_max: f32,
-    /// RMS speed over the whole box, the scale for `closed_flux_max`.
-    pub u_rms: f32,
     /// Density mass `Σ ρ Δx³` in the wet cells (the fluid).
     pub mass_fluid: f64,
     /// Density mass in the dry cells (inside obstacles), at any depth.
