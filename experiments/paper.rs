@@ -3,7 +3,8 @@
 //!
 //! The Markdown is the source. Blocks between `<!-- name:begin -->` and
 //! `<!-- name:end -->` markers are copied from files the experiments write
-//! (the convergence orders table from `results/convergence/orders.md`), so
+//! (the convergence orders table from `results/convergence/orders.md`; the
+//! claims table measured from the results by [`crate::claims`]), so
 //! re-running an experiment and then `smokelab paper` updates the paper.
 //! If `pandoc` is on the PATH the paper is also written to
 //! `paper/paper.html`; without it the command says so and succeeds.
@@ -77,6 +78,13 @@ pub fn build(root: &Path) -> Result<()> {
         )
     })?;
     doc = replace_block(&doc, "orders", &table)?;
+    if doc.contains("<!-- claims:begin -->") {
+        doc = replace_block(
+            &doc,
+            "claims",
+            &crate::claims::table(&root.join("results"))?,
+        )?;
+    }
     io::write_atomic(&md, |w| {
         use std::io::Write;
         Ok(w.write_all(doc.as_bytes())?)

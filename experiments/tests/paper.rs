@@ -81,3 +81,23 @@ fn paper_builds_from_a_subfolder() {
     let md = std::fs::read_to_string(root.join("paper/paper.md")).unwrap();
     assert!(md.contains("| new |") && !md.contains("old"), "{md}");
 }
+
+/// The claims table in the paper is the one the committed results give:
+/// regenerating results without `smokelab paper` fails here.
+#[test]
+fn claims_table_matches_the_committed_results() {
+    let (dir, text) = paper();
+    let results = dir.parent().unwrap().join("results");
+    let table = smokelab_app::claims::table(&results).unwrap();
+    let begin = "<!-- claims:begin -->";
+    let (b, e) = (
+        text.find(begin).expect("a claims block") + begin.len(),
+        text.find("<!-- claims:end -->")
+            .expect("a claims block end"),
+    );
+    assert_eq!(
+        text[b..e].trim(),
+        table.trim(),
+        "paper/paper.md's claims table is stale: run `smokelab paper`"
+    );
+}

@@ -1,0 +1,396 @@
+//! The notes' claims against the committed results: each claim reads its
+//! numbers from a file under `results/` and states whether it holds.
+//!
+//! `smokelab paper` writes [`table`] into the paper's `claims` block, so the
+//! verdicts are recomputed whenever the results are regenerated; a test
+//! checks that the committed paper and the committed results agree. A
+//! verdict is a fixed rule on the numbers (stated in the "rule" column), not
+//! a judgement made after seeing them.
+
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Context, Result};
+
+/// Whether a claim holds on our measurements.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// Every part of the claim holds.
+    Holds,
+    /// Some parts hold and some do not.
+    Partly,
+    /// The measurement contradicts the claim.
+    DoesNotHold,
+}
+
+impl Verdict {
+    /// `Holds` if every part holds, `DoesNotHold` if none does, else `Partly`.
+    pub fn of(parts: &[bool]) -> Self {
+        match parts.iter().filter(|&&p| p).count() {
+            n if n == parts.len() => Verdict::Holds,
+            0 => Verdict::DoesNotHold,
+            _ => Verdict::Partly,
+        }
+    }
+
+    fn text(self) -> &'static str {
+        match self {
+            Verdict::Holds => "holds",
+            Verdict::Partly => "partly",
+            Verdict::DoesNotHold => "does not hold",
+        }
+    }
+}
+
+/// What one claim's measurement found.
+pub struct Finding {
+    /// Our numbers, as they go in the table.
+    pub number: String,
+    /// The verdict of the claim's rule on them.
+    pub verdict: Verdict,
+}
+
+/// One claim of the notes and how it is measured.
+pub struct Claim {
+    /// The claim, with the section of the notes that makes it.
+    pub claim: &'static str,
+    /// The results file the numbers come from (relative to `results/`).
+    pub source: &'static str,
+    /// The rule that turns the numbers into a verdict.
+    pub rule: &'static str,
+    /// Reads the numbers from `results/` and applies the rule.
+    pub measure: fn(&Path) -> Result<Finding>,
+}
+
+/// A CSV file read as text cells by column name.
+struct Csv {
+    path: String,
+    columns: Vec<String>,
+    rows: Vec<Vec<String>>,
+}
+
+impl Csv {
+    fn read(results: &Path, file: &str) -> Result<Self> {
+        let path = results.join(file);
+        let mut r = csv::Reader::from_path(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let columns = r.headers()?.iter().map(String::from).collect();
+        let rows = r
+            .records()
+            .map(|rec| Ok(rec?.iter().map(String::from).collect()))
+            .collect::<Result<Vec<Vec<String>>>>()?;
+        Ok(Self {
+            path: path.display().to_string(),
+            columns,
+            rows,
+        })
+    }
+
+    fn index(&self, column: &str) -> Result<usize> {
+        self.columns
+            .iter()
+            .position(|c| c == column)
+            .ok_or_else(|| anyhow!("{} has no column {column}", self.path))
+    }
+
+    /// The value of `column` in the row whose `key` column is `value`.
+    fn get(&self, key: &str, value: &str, column: &str) -> Result<f64> {
+        let (k, c) = (self.index(key)?, self.index(column)?);
+        let row = self
+            .rows
+            .iter()
+            .find(|r| r[k] == value)
+            .ok_or_else(|| anyhow!("{} has no row with {key} = {value}", self.path))?;
+        row[c]
+            .parse()
+            .with_context(|| format!("{}: {column} of {value} is not a number", self.path))
+    }
+
+    /// Every value of `column`, as numbers.
+    fn numbers(&self, column: &str) -> Result<Vec<f64>> {
+        let c = self.index(column)?;
+        self.rows
+            .iter()
+            .map(|r| {
+                r[c].parse()
+                    .with_context(|| format!("{}: {column} = {} is not a number", self.path, r[c]))
+            })
+            .collect()
+    }
+
+    /// Every value of `column` in rows whose `key` column is `value`.
+    fn numbers_where(&self, key: &str, value: &str, column: &str) -> Result<Vec<f64>> {
+        let (k, c) = (self.index(key)?, self.index(column)?);
+        self.rows
+            .iter()
+            .filter(|r| r[k] == value)
+            .map(|r| {
+                r[c].parse()
+                    .with_context(|| format!("{}: {column} = {} is not a number", self.path, r[c]))
+            })
+            .collect()
+    }
+}
+
+/// Least-squares slope of `y` against `x`.
+fn slope(x: &[f64], y: &[f64]) -> f64 {
+    let n = x.len() as f64;
+    let (mx, my) = (x.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
+    sxy / sxx
+}
+
+/// Hot-gas measures per density mode from 06-3's summary.
+fn modes(results: &Path) -> Result<(Csv, [&'static str; 3])> {
+    Ok((
+        Csv::read(results, "06-3/summary.csv")?,
+        ["gridded", "gridless", "selma"],
+    ))
+}
+
+fn finer_structure(results: &Path) -> Result<Finding> {
+    let (t, _) = modes(results)?;
+    let grad = t.get("mode", "gridless", "hot_grad")? / t.get("mode", "gridded", "hot_grad")?;
+    let sub =
+        t.get("mode", "gridless", "hot_subgrid")? / t.get("mode", "gridded", "hot_subgrid")?;
+    Ok(Finding {
+        number: format!("gridless/gridded: mean |∇ρ| ×{grad:.2}, sub-grid share ×{sub:.0}"),
+        verdict: Verdict::of(&[grad > 1.0, sub > 1.0]),
+    })
+}
+
+fn selma_between(results: &Path) -> Result<Finding> {
+    let (t, [gridded, gridless, selma]) = modes(results)?;
+    let mut parts = vec![];
+    let mut text = vec![];
+    for (column, name) in [("hot_grad", "mean |∇ρ|"), ("hot_subgrid", "sub-grid share")] {
+        let [a, b, c] = [gridded, selma, gridless].map(|m| t.get("mode", m, column));
+        let (a, b, c) = (a?, b?, c?);
+        parts.push(a < b && b < c);
+        text.push(format!("{name} {a:.3} < {b:.3} < {c:.3}"));
+    }
+    Ok(Finding {
+        number: format!("gridded < SELMA < gridless? {}", text.join("; ")),
+        verdict: Verdict::of(&parts),
+    })
+}
+
+fn keeps_peak(results: &Path) -> Result<Finding> {
+    let (t, _) = modes(results)?;
+    let (less, grid) = (
+        t.get("mode", "gridless", "hot_max")?,
+        t.get("mode", "gridded", "hot_max")?,
+    );
+    Ok(Finding {
+        number: format!("peak ρ gridless {less:.2}, gridded {grid:.2}"),
+        verdict: Verdict::of(&[less > grid]),
+    })
+}
+
+fn keeps_mass(results: &Path) -> Result<Finding> {
+    let (t, _) = modes(results)?;
+    let kept = |m| -> Result<f64> {
+        Ok(t.get("mode", m, "hot_mass_4x")? / t.get("mode", m, "hot_injected")?)
+    };
+    let (less, grid) = (kept("gridless")?, kept("gridded")?);
+    Ok(Finding {
+        number: format!(
+            "mass / injected: gridless {:.1} %, gridded {:.1} %",
+            100.0 * less,
+            100.0 * grid
+        ),
+        verdict: Verdict::of(&[(less - 1.0).abs() < (grid - 1.0).abs()]),
+    })
+}
+
+fn sphere_wall_loss(results: &Path) -> Result<Finding> {
+    let kept = Csv::read(results, "07-4/data.csv")?.numbers("mass_kept")?;
+    let &[kept] = kept.as_slice() else {
+        bail!("07-4/data.csv should have one row");
+    };
+    Ok(Finding {
+        number: format!("gridded wall keeps {:.1} % of its mass", 100.0 * kept),
+        verdict: Verdict::of(&[kept < 0.95]),
+    })
+}
+
+fn gridless_cost_grows(results: &Path) -> Result<Finding> {
+    let t = Csv::read(results, "08-2/data.csv")?;
+    let fit = |series, column| -> Result<f64> {
+        let x = t.numbers_where("series", series, "frames")?;
+        let y = t.numbers_where("series", series, column)?;
+        Ok(slope(&x, &y))
+    };
+    let (time_less, time_selma) = (
+        fit("gridless", "render_seconds")?,
+        fit("selma", "render_seconds")?,
+    );
+    let (mem_less, mem_selma) = (
+        fit("gridless", "density_bytes")? / 1048576.0,
+        fit("selma", "density_bytes")? / 1048576.0,
+    );
+    Ok(Finding {
+        number: format!(
+            "per frame: gridless +{time_less:.3} s, +{mem_less:.3} MiB; SELMA {time_selma:+.4} s, {mem_selma:+.3} MiB"
+        ),
+        verdict: Verdict::of(&[
+            time_less > 10.0 * time_selma.abs(),
+            mem_less > 10.0 * mem_selma.abs(),
+        ]),
+    })
+}
+
+fn obstacles_hold(results: &Path) -> Result<Finding> {
+    let t = Csv::read(results, "06-6/data.csv")?;
+    let notes = t.get("case", "sl-gridded-reflect-notes", "max_obstacle_fraction")?;
+    let exact = t
+        .numbers("max_obstacle_fraction")?
+        .iter()
+        .zip(&t.rows)
+        .filter(|(_, r)| !r[0].ends_with("-notes"))
+        .map(|(v, _)| *v)
+        .fold(0.0, f64::max);
+    Ok(Finding {
+        number: format!(
+            "gas inside obstacles: notes' rule {:.1e}, exact projection {exact:.1e}",
+            notes
+        ),
+        verdict: Verdict::of(&[notes < 1e-3]),
+    })
+}
+
+fn simulation_noise_divergence_free(results: &Path) -> Result<Finding> {
+    let t = Csv::read(results, "N-3/data.csv")?;
+    let [value, fast, smooth] = ["value-2d", "fast-sim-2d", "smooth-sim-2d"]
+        .map(|k| t.get("kind", k, "relative_divergence"));
+    let (value, fast, smooth) = (value?, fast?, smooth?);
+    Ok(Finding {
+        number: format!("|∇·u|/|∇u|: value {value:.2}, fast {fast:.1e}, smooth {smooth:.1e}"),
+        verdict: Verdict::of(&[fast < 1e-2, smooth < 1e-2, value > 0.1]),
+    })
+}
+
+fn orders_as_designed(results: &Path) -> Result<Finding> {
+    let text = std::fs::read_to_string(results.join("convergence/orders.md"))
+        .context("cannot read results/convergence/orders.md")?;
+    let rows: Vec<&str> = text
+        .lines()
+        .skip(2)
+        .filter(|l| l.starts_with('|'))
+        .collect();
+    let within = rows
+        .iter()
+        .filter(|l| l.trim_end().ends_with("| yes |"))
+        .count();
+    if rows.is_empty() {
+        bail!("results/convergence/orders.md has no rows");
+    }
+    Ok(Finding {
+        number: format!(
+            "{within} of {} studies within ±0.25 of the expected order",
+            rows.len()
+        ),
+        verdict: Verdict::of(&[within == rows.len()]),
+    })
+}
+
+/// Every claim, in the order of the notes.
+pub fn claims() -> Vec<Claim> {
+    vec![
+        Claim {
+            claim: "gridless density holds finer structure than gridded (§6.2)",
+            source: "06-3/summary.csv",
+            rule: "both ratios > 1",
+            measure: finer_structure,
+        },
+        Claim {
+            claim: "SELMA's detail lies between gridded and gridless (ch. 8)",
+            source: "06-3/summary.csv",
+            rule: "each ordering strict",
+            measure: selma_between,
+        },
+        Claim {
+            claim: "gridless keeps more density: peaks (§6.2)",
+            source: "06-3/summary.csv",
+            rule: "gridless peak > gridded",
+            measure: keeps_peak,
+        },
+        Claim {
+            claim: "gridless keeps more density: mass (§6.2)",
+            source: "06-3/summary.csv",
+            rule: "gridless closer to 100 % (4× sampling)",
+            measure: keeps_mass,
+        },
+        Claim {
+            claim: "the reflecting rule keeps gas out of obstacles (§6.3)",
+            source: "06-6/data.csv",
+            rule: "notes' rule leaves < 0.1 % inside",
+            measure: obstacles_hold,
+        },
+        Claim {
+            claim: "gridded advection of the sphere wall loses substantial density (fig 7.4)",
+            source: "07-4/data.csv",
+            rule: "mass kept < 95 %",
+            measure: sphere_wall_loss,
+        },
+        Claim {
+            claim: "gridless render time and memory grow with frames, SELMA's stay flat (fig 8.2)",
+            source: "08-2/data.csv",
+            rule: "gridless slopes > 10× SELMA's",
+            measure: gridless_cost_grows,
+        },
+        Claim {
+            claim: "simulation noise is divergence-free, value noise is not (Patel & Taylor)",
+            source: "N-3/data.csv",
+            rule: "sim < 10⁻², value > 0.1",
+            measure: simulation_noise_divergence_free,
+        },
+        Claim {
+            claim: "each scheme converges at its designed order",
+            source: "convergence/orders.md",
+            rule: "every study within ±0.25",
+            measure: orders_as_designed,
+        },
+    ]
+}
+
+/// The claims table in Markdown, measured from `results`.
+///
+/// # Errors
+/// A missing results file, column or row.
+pub fn table(results: &Path) -> Result<String> {
+    let mut out = String::from(
+        "| claim of the notes | our number | rule | verdict | source |\n|---|---|---|---|---|\n",
+    );
+    for c in claims() {
+        let f = (c.measure)(results).with_context(|| format!("claim \"{}\"", c.claim))?;
+        // A `|` inside a cell would end it.
+        out.push_str(&format!(
+            "| {} | {} | {} | **{}** | [{}](../results/{}) |\n",
+            c.claim,
+            f.number.replace('|', "\\|"),
+            c.rule,
+            f.verdict.text(),
+            c.source,
+            c.source
+        ));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn verdict_of_parts() {
+        assert_eq!(Verdict::of(&[true, true]), Verdict::Holds);
+        assert_eq!(Verdict::of(&[true, false]), Verdict::Partly);
+        assert_eq!(Verdict::of(&[false, false]), Verdict::DoesNotHold);
+    }
+
+    #[test]
+    fn slope_of_a_line() {
+        assert!((slope(&[0.0, 1.0, 2.0], &[1.0, 3.0, 5.0]) - 2.0).abs() < 1e-12);
+    }
+}
