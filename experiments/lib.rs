@@ -48,6 +48,7 @@ mod e07_7_sphere_wall_fine_march;
 mod e07_8_sphere_wall_gridless;
 mod e08_1_sphere_wall_selma;
 mod e08_2_selma_cost;
+mod e08_3_selma_wake;
 mod ea_1_henyey_greenstein;
 mod ea_2_fournier_forand;
 mod ec_1_convergence;

@@ -74,6 +74,7 @@ pub const ALL: &[Experiment] = &[
     crate::e07_10_gridless_cost::EXPERIMENT,
     crate::e08_1_sphere_wall_selma::EXPERIMENT,
     crate::e08_2_selma_cost::EXPERIMENT,
+    crate::e08_3_selma_wake::EXPERIMENT,
     crate::ea_1_henyey_greenstein::EXPERIMENT,
     crate::ea_2_fournier_forand::EXPERIMENT,
     crate::en_3_simulation_noise_2d::EXPERIMENT,

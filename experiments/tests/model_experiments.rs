@@ -74,3 +74,38 @@ fn nacelle_residual_falls_within_three_iterations() {
         assert!(out.join(f).is_file(), "{f}");
     }
 }
+
+/// 08-3: without the sphere the uniform stream only translates the cloud
+/// (SELMA's map of a uniform flow is exact: disturbance 0); with it the
+/// disturbance lies along the flight path (smoke size measured: 1.38 within
+/// two radii of the path against 0.009 outside, after the passage).
+#[test]
+fn selma_wake_disturbs_the_cloud_along_the_flight_path_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = run("08-3", dir.path());
+    let mut data = csv::Reader::from_path(out.join("data.csv")).unwrap();
+    let rows: Vec<(String, f64, f64, f64)> = data
+        .records()
+        .map(|r| {
+            let r = r.unwrap();
+            (
+                r[0].to_string(),
+                r[1].parse().unwrap(),
+                r[3].parse().unwrap(),
+                r[4].parse().unwrap(),
+            )
+        })
+        .collect();
+    assert_eq!(rows.len(), 6);
+    for (case, t, near, far) in &rows {
+        if case == "no-sphere" || *t == 0.0 {
+            assert!(near + far <= 1e-6, "{case} t {t}: {near} {far}");
+        }
+    }
+    let (_, _, near, far) = rows.iter().find(|r| r.0 == "sphere" && r.1 == 6.0).unwrap();
+    assert!(*near > 0.5, "disturbance along the path {near}");
+    assert!(*near > 20.0 * far, "near {near}, far {far}");
+    for f in ["wake.png", "slice.png", "flow.png", "manifest.json"] {
+        assert!(out.join(f).is_file(), "no {f}");
+    }
+}
