@@ -23,7 +23,9 @@
 //!
 //! Run: `smokelab experiment 06-6` (`--full`, `--smoke`).
 //!
-//! Writes `results/06-6/`: `fig_6_6.png` (the seven rows), `retained.png` /
+//! Writes `results/06-6/`: `fig_6_6_render.png` (the seven rows as volume
+//! renders: green gas, the box's walls as a faint blue haze, the red slab),
+//! `fig_6_6.png` (the same as mid-plane slices), `retained.png` /
 //! `.svg` (gas in the fluid cells over gas injected, per step and case),
 //! `data.csv` (one line per case: the largest share of the gas inside
 //! obstacles, the largest speed through a closed face, the mean flux
@@ -40,9 +42,13 @@ use std::path::Path;
 
 use std::io::Write;
 
+use std::sync::Arc;
+
 use anyhow::{Context as _, Result};
+use glam::Vec3;
 use image::RgbImage;
 
+use crate::model_render::render_densities;
 use crate::plot::{LegendPosition, Plot, Series};
 use crate::registry::{Context, Experiment, Size};
 use crate::run::{self, RunOptions, SaveFrames};
@@ -50,6 +56,7 @@ use crate::table::Columns;
 use smokelab::advection::Scheme;
 use smokelab::boundary::{AsField, BoundaryRule, Obstacle, ObstacleMethod};
 use smokelab::density::DensityMode;
+use smokelab::field::Scalar;
 use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, preview};
 use smokelab::scenario::slab_box::SlabBoxConfig;
@@ -159,7 +166,7 @@ fn run(ctx: &Context) -> Result<()> {
          mean_div_fluid_rms,final_retained,min_retained,final_mass,injected_mass,\
          mean_cg_iterations,mean_face_cg_iterations,wall_seconds\n",
     );
-    let mut rows = vec![];
+    let (mut rows, mut render_rows) = (vec![], vec![]);
     let mut plot = Plot::new(
         "06-6: gas in the fluid over gas injected",
         "step",
@@ -207,52 +214,84 @@ fn run(ctx: &Context) -> Result<()> {
             case.name,
             steps.into_iter().zip(retained).collect(),
         ));
-        rows.push(figure_row(config, &out, &saved)?);
+        let (slices, renders) = figure_row(config, &out, &saved)?;
+        rows.push(slices);
+        render_rows.push(renders);
     }
     io::write_atomic(&ctx.out.join("data.csv"), |w| {
         Ok(w.write_all(data.as_bytes())?)
     })?;
     plot.write(&ctx.out.join("retained"))?;
-    io::write_png(&ctx.out.join("fig_6_6.png"), &preview::stacked(&rows, 6))
+    io::write_png(&ctx.out.join("fig_6_6.png"), &preview::stacked(&rows, 6))?;
+    io::write_png(
+        &ctx.out.join("fig_6_6_render.png"),
+        &preview::stacked(&render_rows, 6),
+    )
 }
 
-/// The saved frames of one case as green gas, blue walls and a red slab.
-fn figure_row(config: &SlabBoxConfig, dir: &Path, frames: &[usize]) -> Result<RgbImage> {
+/// The saved frames of one case as green gas, blue walls and a red slab:
+/// mid-plane slices, and volume renders (appendix-A marcher, key light) in
+/// which the walls are a faint blue haze and the slab is opaque.
+fn figure_row(
+    config: &SlabBoxConfig,
+    dir: &Path,
+    frames: &[usize],
+) -> Result<(RgbImage, RgbImage)> {
     let domain = config.solver.domain()?;
-    let solid = |o: Obstacle| {
+    let solid = |o: Obstacle, value: f32| {
         let mut g = ScalarGrid::from_field(domain, &AsField(o));
         g.as_slice_mut()
             .iter_mut()
-            .for_each(|v| *v = if *v >= 0.0 { 3.0 } else { 0.0 });
+            .for_each(|v| *v = if *v >= 0.0 { value } else { 0.0 });
         g
     };
-    let walls = solid(std::sync::Arc::new(config.walls()));
-    let slab = solid(std::sync::Arc::new(config.slab()));
-    let images = frames
-        .iter()
-        .map(|f| {
-            let path = dir.join(format!("density_{f:04}.npy"));
-            let rho: ndarray::Array3<f32> = ndarray_npy::read_npy(&path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            let rho = ScalarGrid::from_array(domain, rho);
-            let layers = [
-                preview::Layer {
-                    grid: &rho,
-                    color: preview::GREEN,
-                },
-                preview::Layer {
-                    grid: &walls,
-                    color: preview::BLUE,
-                },
-                preview::Layer {
-                    grid: &slab,
-                    color: preview::RED,
-                },
-            ];
-            Ok(preview::mid_slice(&layers, 1.0, 200))
-        })
-        .collect::<Result<Vec<_>>>()?;
-    Ok(preview::side_by_side(&images, 4))
+    let walls = solid(std::sync::Arc::new(config.walls()), 3.0);
+    let slab = solid(std::sync::Arc::new(config.slab()), 3.0);
+    let haze: Scalar = Arc::new(solid(std::sync::Arc::new(config.walls()), 0.01));
+    let slab_volume: Scalar = Arc::new(slab.clone());
+    let mut slices = vec![];
+    let mut renders = vec![];
+    for f in frames {
+        let path = dir.join(format!("density_{f:04}.npy"));
+        let rho: ndarray::Array3<f32> = ndarray_npy::read_npy(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let rho = ScalarGrid::from_array(domain, rho);
+        let layers = [
+            preview::Layer {
+                grid: &rho,
+                color: preview::GREEN,
+            },
+            preview::Layer {
+                grid: &walls,
+                color: preview::BLUE,
+            },
+            preview::Layer {
+                grid: &slab,
+                color: preview::RED,
+            },
+        ];
+        slices.push(preview::mid_slice(&layers, 1.0, 200));
+        let to_rgb = |c: [f32; 3]| Vec3::from(c);
+        renders.push(render_densities(
+            vec![
+                (
+                    "density".into(),
+                    Arc::new(rho) as Scalar,
+                    to_rgb(preview::GREEN),
+                ),
+                ("walls".into(), haze.clone(), to_rgb(preview::BLUE)),
+                ("slab".into(), slab_volume.clone(), to_rgb(preview::RED)),
+            ],
+            domain,
+            200,
+            0.5,
+            4.0,
+        )?);
+    }
+    Ok((
+        preview::side_by_side(&slices, 4),
+        preview::side_by_side(&renders, 4),
+    ))
 }
 
 #[cfg(test)]
