@@ -205,6 +205,11 @@ pub struct SceneFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub source_edge: Option<f32>,
+    /// Horizontal offset of the sources (hot-cold, world units): hot moves
+    /// by +d and cold by −d along x, so the gases pass each other (0: head-on).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub offset: Option<f32>,
     /// How the pressure solve treats obstacles (slab-box): `exact` (cut
     /// cells, no flux through closed faces) or `notes` (eqs 6.6–6.7 after a
     /// periodic projection, `--boundary-passes` times).

@@ -12,12 +12,21 @@
 //! shows why the solid mask breaks gridless symmetry (a path grazing the
 //! sphere turns round-off into a whole `S Δt`).
 //!
+//! Two more rows, `gridded-offset` and `selma-offset`, run with the
+//! scenario's `offset = 0.5` (hot source 0.5 to +x, cold 0.5 to −x), so the
+//! gases pass each other as in the notes' figs 6.1–6.5 instead of meeting
+//! head-on. Their `mirror_error` measures the offset (the problem keeps the
+//! half turn, not the mirror; experiment S-1 measures that symmetry). A
+//! gridless offset row would add the cost of another gridless run (about
+//! 50 s of the 150); `--full` adds it.
+//!
 //! Run: `smokelab experiment 06-5` (40³, 100 steps; about 3 minutes on 2
 //! free cores; `--full` is 50³ with 150 steps plus SELMA^fine, about 15
 //! minutes; `--smoke` is 16³ for tests).
 //!
 //! Writes `results/06-5/`: `side_by_side.png` (one row per run — gridded,
-//! gridless, SELMA, gridless-smooth[, SELMA^fine] — mid-plane slices of the density fields at
+//! gridless, SELMA, gridless-smooth, gridded-offset, selma-offset[,
+//! gridless-offset, SELMA^fine] — mid-plane slices of the density fields at
 //! four frames), `side_by_side_render.png` (the same, ray-marched),
 //! `final.png` (the last frame of every mode, larger, left to right in the
 //! same order), `metrics_*.png/.svg` and `metrics.png`, `summary.csv`,
@@ -36,6 +45,9 @@ use smokelab::scenario::hot_cold::HotColdConfig;
 /// Edge width of the smooth-source control run (world units; the spheres
 /// have radius 1).
 const SMOOTH_EDGE: f32 = 0.4;
+
+/// Horizontal source offset of the offset rows (world units).
+const OFFSET: f32 = 0.5;
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -101,6 +113,21 @@ fn run(ctx: &Context) -> Result<()> {
         .map(|&m| ModeRun::new(&config, m))
         .collect();
     modes.push(ModeRun::gridless_smooth(&config, SMOOTH_EDGE));
+    let offset = HotColdConfig {
+        offset: OFFSET,
+        ..config.clone()
+    };
+    let mut offset_modes = vec![DensityMode::Gridded, DensityMode::Selma];
+    if ctx.size == Size::Full {
+        offset_modes.insert(1, DensityMode::Gridless);
+    }
+    for mode in offset_modes {
+        let m = ModeRun::new(&offset, mode);
+        modes.push(ModeRun {
+            label: format!("{}-offset", m.label),
+            config: m.config,
+        });
+    }
     if ctx.size == Size::Full {
         modes.push(ModeRun::selma_fine(&config, 2));
     }

@@ -38,6 +38,7 @@ mod e05_1_cut_sphere;
 mod e06_1_hot_cold_gridded;
 mod e06_3_hot_cold_gridless;
 mod e06_5_density_modes;
+mod s1_symmetry;
 mod e06_6_slab_box;
 mod e07_10_gridless_cost;
 mod e07_2_gridless_noise_step;

@@ -64,6 +64,7 @@ pub const ALL: &[Experiment] = &[
     crate::e06_1_hot_cold_gridded::EXPERIMENT,
     crate::e06_3_hot_cold_gridless::EXPERIMENT,
     crate::e06_5_density_modes::EXPERIMENT,
+    crate::s1_symmetry::EXPERIMENT,
     crate::e06_6_slab_box::EXPERIMENT,
     crate::e07_2_gridless_noise_step::EXPERIMENT,
     crate::e07_4_sphere_wall_gridded::EXPERIMENT,
