@@ -235,6 +235,9 @@ fn color(label: &str) -> plotters::style::RGBColor {
         "gridless" => PALETTE[3],
         "selma" => PALETTE[2],
         "gridless-smooth" => PALETTE[1],
+        "gridded-offset" => PALETTE[5],
+        "selma-offset" => PALETTE[6],
+        "gridless-offset" => PALETTE[7],
         _ => PALETTE[4],
     }
 }
