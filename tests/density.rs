@@ -269,9 +269,10 @@ fn selma_converges_to_gridless_as_the_map_refines() {
 /// gridded, gridless and SELMA, after each of `checkpoints` steps of a
 /// hot/cold run at `res`³ with `advection`.
 ///
-/// Each mode is divided by what it adds: gridded adds the source sampled on
-/// the grid (`Gas::injected_per_step`, `Σ S Δx³ Δt`; at 16³ the solid unit
-/// sphere covers 47 % of its volume in cell centres, at 24³ 98 %), gridless
+/// Each mode is divided by what it adds: gridded adds the grid `Gas::source`
+/// (`Gas::injected_per_step`, `Σ S Δx³ Δt`; point-sampled at the cell
+/// centres, the solid unit sphere has 47 % of its volume at 16³, 98 % at
+/// 24³ — the reason total masses of the modes cannot be compared), gridless
 /// and SELMA add `∫ S dV Δt` (4× midpoint quadrature). Gridded mass is its
 /// grid total, gridless and SELMA are integrated at 4× — the 2× probe
 /// over-counts the solid sources' edges by 2–3 %. So a change of the
@@ -333,11 +334,17 @@ fn mass_over_injected(res: usize, advection: Scheme, checkpoints: &[usize]) -> V
 ///   preserving), SELMA within 3.5 %, and the two agree within 2 %.
 /// - Gridded with QUICK conserves (flux form): it keeps exactly what it adds.
 /// - Gridded with SL loses mass, more as time goes on and less on finer
-///   grids (11 % at 16³, 6.3 % at 24³ by t = 2).
-/// - So "gridless keeps more mass than gridded" holds against SL gridded
-///   (by 1.8 and 2.7 points at t = 1, by 13 and 8 at t = 2) and not against
-///   QUICK gridded, which keeps all it adds: there gridless is 0.3 % below
-///   at t = 1 and 1.8 % above at t = 2, within its own error.
+///   grids (11 % at 16³, 6.3 % at 24³ by t = 2). With the source injected
+///   as its cell average instead of point-sampled (measured by replacing
+///   `Gas::source` in a scratch run) it loses less: 0.9926 / 0.9543 at 16³,
+///   0.9934 / 0.9594 at 24³ — the asserted bands hold for both.
+/// - So "gridless keeps more mass than gridded" holds against SL gridded at
+///   t = 2 (by 13 and 8 points; 6 and 6 with cell-average injection). At
+///   t = 1 it depends on the injection (16³: gridless 0.9969 against
+///   0.9792 point-sampled, 0.9926 cell-averaged) and is not asserted. It
+///   does not hold against QUICK gridded, which keeps all it adds: there
+///   gridless is 0.3 % below at t = 1 and 1.8 % above at t = 2, within its
+///   own error.
 #[test]
 fn mass_kept_over_own_injection_per_mode_and_scheme() {
     let checkpoints = [20, 40];
@@ -365,16 +372,12 @@ fn mass_kept_over_own_injection_per_mode_and_scheme() {
             }
         }
         if advection == Scheme::Sl {
-            let ([g1, gl1, _], [g2, gl2, _]) = (r[0], r[1]);
-            // The loss grows with time, and gridless keeps more.
+            let ([g1, ..], [g2, gl2, _]) = (r[0], r[1]);
+            // The loss grows with time, and by t = 2 gridless keeps more.
             assert!(g2 < g1 - 0.02, "{res}³: SL gridded {g1} → {g2}");
             assert!(
-                gl1 > g1 + 0.01,
-                "{res}³: gridless {gl1} vs SL gridded {g1} at t = 1"
-            );
-            assert!(
                 (0.85..=0.97).contains(&g2),
-                "{res}³: SL gridded keeps {g2} at t = 2 (measured 0.89 at 16³, 0.94 at 24³)"
+                "{res}³: SL gridded keeps {g2} at t = 2 (measured 0.89 at 16³, 0.94 at 24³; 0.95, 0.96 injecting cell averages)"
             );
             assert!(gl2 > g2 + 0.04, "{res}³: gridless {gl2} vs SL gridded {g2}");
         }
