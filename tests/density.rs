@@ -1,8 +1,9 @@
 //! Density modes (§6.2, ch. 7, ch. 8): gridless is the exact composition of
 //! the stored backtraces, converges to the exact flow as the velocity grid
-//! refines, SELMA converges to gridless as its map refines, the modes agree
-//! on mass with sources, memory behaves as designed, and the gridded path is
-//! bit-identical to the foundation's step.
+//! refines, SELMA converges to gridless as its map refines, the mass each
+//! mode keeps of what it injected (per scheme and time), memory measured by
+//! the allocator beside the reported bytes, and every mode's field snapshot
+//! matches its cell centres and outlives later steps.
 
 use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
@@ -12,8 +13,8 @@ use std::sync::Arc;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use smokelab::advection::{self, departure_point, Backtrace, Departures};
-use smokelab::density::probe::DensityProbe;
+use smokelab::advection::{self, departure_point, Backtrace, Departures, Scheme};
+use smokelab::density::probe::integral;
 use smokelab::density::{DensityMode, DensityModel, DensityOptions, GridlessField, StepInput};
 use smokelab::domain::Domain;
 use smokelab::field::{Scalar, ScalarField, VectorField};
@@ -264,41 +265,200 @@ fn selma_converges_to_gridless_as_the_map_refines() {
     }
 }
 
-/// Hot mass of a hot/cold run at 32³ after 30 steps, fine-sampled.
-fn hot_mass(mode: DensityMode) -> f64 {
-    let config = HotColdConfig {
-        solver: SolverConfig {
-            res: 32,
-            frames: 30,
-            density: mode,
-            ..SolverConfig::default()
-        },
-        ..Default::default()
-    };
-    let mut sim = config.build().unwrap();
-    for _ in 0..config.solver.frames {
-        sim.step();
+/// Mass of the hot gas over the mass its own representation injected, for
+/// gridded, gridless and SELMA, after each of `checkpoints` steps of a
+/// hot/cold run at `res`³ with `advection`.
+///
+/// Each mode is divided by what it adds: gridded adds the grid `Gas::source`
+/// (`Gas::injected_per_step`, `Σ S Δx³ Δt`; point-sampled at the cell
+/// centres, the solid unit sphere has 47 % of its volume at 16³, 98 % at
+/// 24³ — the reason total masses of the modes cannot be compared), gridless
+/// and SELMA add `∫ S dV Δt` (4× midpoint quadrature). Gridded mass is its
+/// grid total, gridless and SELMA are integrated at 4× — the 2× probe
+/// over-counts the solid sources' edges by 2–3 %. So a change of the
+/// gridded injection (e.g. to the cell average of `S`) moves numerator and
+/// denominator together.
+fn mass_over_injected(res: usize, advection: Scheme, checkpoints: &[usize]) -> Vec<[f64; 3]> {
+    let mut out = vec![[0.0; 3]; checkpoints.len()];
+    for (m, mode) in DensityMode::ALL.into_iter().enumerate() {
+        let config = HotColdConfig {
+            solver: SolverConfig {
+                res,
+                frames: *checkpoints.last().unwrap(),
+                advection,
+                density: mode,
+                ..SolverConfig::default()
+            },
+            ..Default::default()
+        };
+        let dt = config.solver.dt;
+        let mut sim = config.build().unwrap();
+        let d = *sim.domain();
+        let hot = &sim.gases[0];
+        let per_step = match mode {
+            DensityMode::Gridded => hot.injected_per_step(dt),
+            _ => integral(&*hot.source_field, &d, 4) * dt as f64,
+        };
+        let mut done = 0;
+        for (c, &n) in checkpoints.iter().enumerate() {
+            for _ in done..n {
+                sim.step();
+            }
+            done = n;
+            let model = &sim.gases[0].model;
+            let mass = match mode {
+                DensityMode::Gridded => model.density().total(),
+                _ => integral(&*model.field(), &d, 4),
+            };
+            out[c][m] = mass / (per_step * n as f64);
+        }
     }
-    DensityProbe::new(*sim.domain())
-        .measure(&sim.gases[0].model)
-        .mass
+    out
 }
 
+/// Which mode keeps more of what it injected depends on the advection
+/// scheme and the time, so this states the measured relation per case
+/// (hot/cold, Δt 0.05, mass over own injection at t = 1 and t = 2):
+///
+/// | case | gridded | gridless | SELMA |
+/// |---|---|---|---|
+/// | 16³ SL    | 0.9792 / 0.8905 | 0.9969 / 1.0187 | 1.0099 / 1.0122 |
+/// | 16³ QUICK | 1.0000 / 1.0000 | 0.9969 / 1.0176 | 1.0099 / 1.0136 |
+/// | 24³ SL    | 0.9875 / 0.9370 | 1.0141 / 1.0175 | 1.0345 / 1.0204 |
+///
+/// (At 32³ SL, not run here for time: gridded 0.9919 / 0.9656, gridless
+/// 1.0062 / 1.0063, SELMA 0.9930 / 0.9936.)
+///
+/// - Gridless keeps its injection to within 2 % (not exactly: the stored
+///   backtraces of a discretely divergence-free velocity are not volume
+///   preserving), SELMA within 3.5 %, and the two agree within 2 %.
+/// - Gridded with QUICK conserves (flux form): it keeps exactly what it adds.
+/// - Gridded with SL loses mass, more as time goes on and less on finer
+///   grids (11 % at 16³, 6.3 % at 24³ by t = 2). With the source injected
+///   as its cell average instead of point-sampled (measured by replacing
+///   `Gas::source` in a scratch run) it loses less: 0.9926 / 0.9543 at 16³,
+///   0.9934 / 0.9594 at 24³ — the asserted bands hold for both.
+/// - So "gridless keeps more mass than gridded" holds against SL gridded at
+///   t = 2 (by 13 and 8 points; 6 and 6 with cell-average injection). At
+///   t = 1 it depends on the injection (16³: gridless 0.9969 against
+///   0.9792 point-sampled, 0.9926 cell-averaged) and is not asserted. It
+///   does not hold against QUICK gridded, which keeps all it adds: there
+///   gridless is 0.3 % below at t = 1 and 1.8 % above at t = 2, within its
+///   own error.
 #[test]
-fn with_sources_selma_and_gridless_agree_on_mass_and_gridless_keeps_more_than_gridded() {
-    let [gridded, gridless, selma] = DensityMode::ALL.map(hot_mass);
-    println!("hot mass after 30 steps at 32³: gridded {gridded:.4}, gridless {gridless:.4}, selma {selma:.4}");
-    let rel = (selma - gridless).abs() / gridless;
-    assert!(
-        rel <= 0.02,
-        "SELMA and gridless hot mass differ by {rel:.4}"
-    );
-    assert!(
-        gridless >= gridded,
-        "gridless keeps {gridless}, gridded {gridded}"
-    );
+fn mass_kept_over_own_injection_per_mode_and_scheme() {
+    let checkpoints = [20, 40];
+    for (res, advection) in [(16, Scheme::Sl), (16, Scheme::Quick), (24, Scheme::Sl)] {
+        let r = mass_over_injected(res, advection, &checkpoints);
+        for (&n, [gridded, gridless, selma]) in checkpoints.iter().zip(&r) {
+            let case = format!("{res}³ {advection:?}, step {n}");
+            println!("{case}: mass / own injection: gridded {gridded:.5}, gridless {gridless:.5}, selma {selma:.5}");
+            assert!(
+                (gridless - 1.0).abs() <= 0.03,
+                "{case}: gridless {gridless}"
+            );
+            assert!((selma - 1.0).abs() <= 0.05, "{case}: selma {selma}");
+            assert!(
+                (selma - gridless).abs() <= 0.03,
+                "{case}: SELMA {selma} and gridless {gridless} disagree"
+            );
+            if advection == Scheme::Quick {
+                assert!(
+                    (gridded - 1.0).abs() <= 1e-4,
+                    "{case}: QUICK gridded {gridded}"
+                );
+            } else {
+                assert!(*gridded < 1.0, "{case}: SL gridded gained ({gridded})");
+            }
+        }
+        if advection == Scheme::Sl {
+            let ([g1, ..], [g2, gl2, _]) = (r[0], r[1]);
+            // The loss grows with time, and by t = 2 gridless keeps more.
+            assert!(g2 < g1 - 0.02, "{res}³: SL gridded {g1} → {g2}");
+            assert!(
+                (0.85..=0.97).contains(&g2),
+                "{res}³: SL gridded keeps {g2} at t = 2 (measured 0.89 at 16³, 0.94 at 24³; 0.95, 0.96 injecting cell averages)"
+            );
+            assert!(gl2 > g2 + 0.04, "{res}³: gridless {gl2} vs SL gridded {g2}");
+        }
+    }
 }
 
+/// Bytes allocated minus bytes freed by the current thread, counted by the
+/// test binary's allocator: the memory a thread's own work holds, measured
+/// independently of [`DensityModel::buffers`].
+mod allocated {
+    use std::alloc::{GlobalAlloc, Layout, System};
+    use std::cell::Cell;
+
+    thread_local! {
+        static NET: Cell<i64> = const { Cell::new(0) };
+    }
+
+    fn add(bytes: i64) {
+        // During thread teardown the counter may be gone; nothing to count then.
+        let _ = NET.try_with(|c| c.set(c.get() + bytes));
+    }
+
+    /// The current thread's net allocated bytes.
+    pub fn net() -> i64 {
+        NET.with(Cell::get)
+    }
+
+    pub struct Counting;
+
+    // SAFETY: every call is forwarded to `System` unchanged; only sizes are counted.
+    unsafe impl GlobalAlloc for Counting {
+        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+            let p = unsafe { System.alloc(layout) };
+            if !p.is_null() {
+                add(layout.size() as i64);
+            }
+            p
+        }
+
+        unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+            let p = unsafe { System.alloc_zeroed(layout) };
+            if !p.is_null() {
+                add(layout.size() as i64);
+            }
+            p
+        }
+
+        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+            unsafe { System.dealloc(ptr, layout) };
+            add(-(layout.size() as i64));
+        }
+
+        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+            let p = unsafe { System.realloc(ptr, layout, new_size) };
+            if !p.is_null() {
+                add(new_size as i64 - layout.size() as i64);
+            }
+            p
+        }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: allocated::Counting = allocated::Counting;
+
+/// The stored velocity grids of a gridless gas.
+fn stored(model: &DensityModel) -> Vec<Arc<FaceGrid>> {
+    match model {
+        DensityModel::Gridless(g) => g.field().velocities().cloned().collect(),
+        _ => panic!("not gridless"),
+    }
+}
+
+/// Memory is checked three ways. (1) The reported bytes
+/// ([`DensityModel::bytes`], summed from the buffers the models hold).
+/// (2) The allocator: the velocity snapshot is cloned on the stepping thread
+/// ([`smokelab::simulation::Simulation::advect`]), so the bytes this thread
+/// allocates and does not free over a step are what the step keeps; the
+/// parallel work runs on rayon's threads and is not counted. (3) For
+/// gridless, what is kept: distinct allocations shared by the two gases, each a copy of that step's velocity, and freed when
+/// the simulation is dropped.
 #[test]
 fn gridless_memory_grows_by_one_velocity_grid_per_step_and_selma_memory_is_constant() {
     let config = |density| HotColdConfig {
@@ -316,18 +476,26 @@ fn gridless_memory_grows_by_one_velocity_grid_per_step_and_selma_memory_is_const
     // Before any step a gridless gas holds only its cell-centre cache.
     let cache = gridless.gases[0].model.bytes();
     assert_eq!(cache, velocity_bytes / 3);
+    let (mut grown, mut selma_grown) = (vec![], vec![]);
     let mut selma_at_10 = 0;
     for n in 1..=40 {
+        let before = gridless.velocity.clone();
+        let net = allocated::net();
         gridless.step();
+        grown.push(allocated::net() - net);
+        let net = allocated::net();
         selma.step();
+        if n > 10 {
+            selma_grown.push(allocated::net() - net);
+        }
+        // (1) Reported.
         let held = gridless.gases[0].model.bytes() - cache;
-        let expect = n * velocity_bytes;
-        assert!(
-            held.abs_diff(expect) * 10 <= velocity_bytes,
-            "gridless after {n} steps holds {held} B besides its cache, expected {expect} B ± 10% of one velocity grid"
+        assert_eq!(
+            held,
+            n * velocity_bytes,
+            "gridless reports {held} B after {n} steps"
         );
-        // Both gases share the velocity grids: the total grows by exactly one per step.
-        assert_eq!(gridless.density_bytes(), expect + 2 * cache);
+        assert_eq!(gridless.density_bytes(), n * velocity_bytes + 2 * cache);
         if n == 10 {
             selma_at_10 = selma.density_bytes();
         }
@@ -335,10 +503,59 @@ fn gridless_memory_grows_by_one_velocity_grid_per_step_and_selma_memory_is_const
             let b = selma.density_bytes();
             assert!(
                 b.abs_diff(selma_at_10) * 20 <= selma_at_10,
-                "SELMA bytes {b} at step {n}, {selma_at_10} at step 10"
+                "SELMA reports {b} B at step {n}, {} B at step 10",
+                selma_at_10
             );
         }
+        // (3) Kept: one new distinct grid per step, shared by both gases,
+        // holding the velocity the step advected with.
+        let (hot, cold) = (
+            stored(&gridless.gases[0].model),
+            stored(&gridless.gases[1].model),
+        );
+        assert_eq!(hot.len(), n);
+        assert!(hot.iter().zip(&cold).all(|(a, b)| Arc::ptr_eq(a, b)));
+        // Four owners: the two gases and the clones in `hot` and `cold`.
+        assert!(hot.iter().all(|a| Arc::strong_count(a) == 4));
+        let last = hot.last().unwrap();
+        assert_eq!(common::max_face_diff(last, &before), 0.0);
+        assert_ne!(last.slice(0).as_ptr(), gridless.velocity.slice(0).as_ptr());
+        let mut addrs: Vec<_> = hot.iter().map(|a| a.slice(0).as_ptr()).collect();
+        addrs.sort_unstable();
+        addrs.dedup();
+        assert_eq!(addrs.len(), n, "stored grids alias each other");
     }
+    // (2) Measured by the allocator. Gridless keeps 49 528 B per step at
+    // 16³ (the 49 152 B grid, the Arc and the step record), and on some
+    // steps 1 520 B more that SELMA's steps show too: a block of rayon's
+    // job injector (63 slots of 24 B and a link), allocated by this thread
+    // and freed by a worker. SELMA keeps those blocks only: 15 200 and
+    // 21 280 B over its last 30 steps in two runs, under half a velocity
+    // grid, where gridless keeps 30 grids.
+    println!("gridless: bytes kept per step {grown:?} (one velocity grid: {velocity_bytes} B)");
+    println!("SELMA: bytes kept per step after step 10 {selma_grown:?}");
+    let v = velocity_bytes as i64;
+    for (n, &g) in grown.iter().enumerate() {
+        assert!(
+            (v..=v + 4096).contains(&g),
+            "gridless step {} kept {g} B; one velocity grid is {v} B",
+            n + 1
+        );
+    }
+    let selma_total: i64 = selma_grown.iter().sum();
+    assert!(
+        selma_grown.iter().all(|&g| g.abs() <= 4096) && selma_total.abs() <= 2 * v,
+        "SELMA kept {selma_grown:?} B over steps 11..=40"
+    );
+    let weak: Vec<_> = stored(&gridless.gases[0].model)
+        .iter()
+        .map(Arc::downgrade)
+        .collect();
+    drop(gridless);
+    assert!(
+        weak.iter().all(|w| w.upgrade().is_none()),
+        "stored velocity grids outlive the simulation"
+    );
 }
 
 #[test]
@@ -351,6 +568,7 @@ fn every_mode_runs_and_its_field_snapshot_matches_its_cell_centres() {
             let mut sampled = ScalarGrid::zeros(d);
             sampled.write_field(&*snapshot);
             assert_eq!(sampled.as_slice(), gas.density().as_slice(), "{mode}");
+            // Guard: equal all-zero grids would make the comparison above vacuous.
             assert!(gas.density().total() > 0.0, "{mode}: no {} gas", gas.name);
         }
         // A snapshot does not change when the simulation steps on.

@@ -1,4 +1,5 @@
-//! Full steps: Taylor–Green viscous decay and the hot/cold mirror symmetry.
+//! Full steps: Taylor–Green viscous decay, the hot/cold mirror symmetry, and
+//! the buoyant rise against its small-displacement estimate.
 
 use glam::Vec3;
 use smokelab::advection::Scheme;
@@ -43,11 +44,27 @@ fn taylor_green_decays_as_exp_minus_two_nu_t() {
     assert!(rel <= 1e-4, "relative error {rel} after {steps} steps");
 }
 
+/// The hot gas's centre-of-mass rise from step 1 to step `n` while the
+/// displacement is small against the source's radius: inside a uniformly
+/// forced ball the projection keeps `2/3` of the force (the gradient part of
+/// `f·1_B` is `f/3` inside the ball), so the velocity there after step `k`
+/// is `v_k = (2/3) g S Δt² k(k+1)/2` (the density is `k S Δt` when the
+/// buoyancy of step `k` is added). Gas injected at step `j` then moves by
+/// `Σ_{k=j}^{n−1} v_k Δt`, so the centre of mass of the `n` equal
+/// injections rises by `(Δt/n) Σ_{k=1}^{n−1} k v_k`. The mirrored cold
+/// source and the periodic images change this by well under 1 % (dipole
+/// fields of relative size `(4π/3)·2/(4π·5³)` and `(4π/3)/10³`).
+fn buoyant_rise(n: usize, dt: f64, gravity: f64, rate: f64) -> f64 {
+    let v = |k: f64| 2.0 / 3.0 * gravity * rate * dt * dt * k * (k + 1.0) / 2.0;
+    (1..n).map(|k| k as f64 * v(k as f64)).sum::<f64>() * dt / n as f64
+}
+
 /// The discrete hot/cold problem is symmetric under hot ↔ cold, y ↔ L − y
 /// (the cold source is the mirror of the hot one and every operator is
 /// mirror-symmetric): for every advection scheme and density mode, after 20
 /// steps at 32³ the densities at the cell centres mirror each other to
-/// round-off, hot has risen and cold has sunk.
+/// round-off, and hot has risen (cold sunk) by the small-displacement
+/// buoyancy estimate [`buoyant_rise`], 0.0804 at t = 1.
 #[test]
 fn hot_cold_is_mirror_symmetric_and_buoyant_for_every_scheme_and_mode() {
     for advection in Scheme::ALL {
@@ -74,26 +91,80 @@ fn hot_cold_is_mirror_symmetric_and_buoyant_for_every_scheme_and_mode() {
                 sim.step();
             }
             let (hot, cold) = (sim.gases[0].density(), sim.gases[1].density());
-            assert!(sim.velocity.is_finite(), "{case}");
-            assert!(
-                hot.as_slice()
-                    .iter()
-                    .chain(cold.as_slice())
-                    .all(|v| v.is_finite()),
-                "{case}"
-            );
             let err = smokelab::metrics::mirror_error(hot, cold);
             let (hot1, cold1) = (hot.center_of_mass(), cold.center_of_mass());
+            let s = &config.solver;
+            let expect = buoyant_rise(s.frames, s.dt as f64, s.gravity as f64, 1.0);
+            let (rise, sink) = ((hot1.y - hot0.y) as f64, (cold0.y - cold1.y) as f64);
             println!(
-                "{case}: mirror error {err:.3e}; hot y {} → {}, cold y {} → {}",
-                hot0.y, hot1.y, cold0.y, cold1.y
+                "{case}: mirror error {err:.3e}; hot rose {rise:.4}, cold sank {sink:.4}, estimate {expect:.4} (ratio {:.3})",
+                rise / expect
             );
             assert!(
                 err <= 1e-4,
                 "{case}: hot and mirrored cold differ by {err} (relative)"
             );
-            assert!(hot1.y > hot0.y + 0.01, "{case}: hot gas did not rise");
-            assert!(cold1.y < cold0.y - 0.01, "{case}: cold gas did not sink");
+            // Measured 0.757 (gridless, SELMA) to 0.892 (QUICK gridded) of
+            // the estimate: at 32³ the resolved rise falls short of it (see
+            // the convergence test below).
+            for (what, r) in [("hot rose", rise), ("cold sank", sink)] {
+                assert!(
+                    (0.65..=0.98).contains(&(r / expect)),
+                    "{case}: {what} {r}, estimate {expect}"
+                );
+            }
         }
+    }
+}
+
+/// The rise approaches [`buoyant_rise`] as the grid refines, so the
+/// estimate is the flow's and the shortfall the discretisation's (smeared
+/// staircase source, damped velocity). Measured with gridded densities at
+/// t = 1 (20 steps), rise over the estimate at 16³ / 32³ / 48³ / 64³:
+/// SL 0.593 / 0.788 / 0.843 / 0.873, QUICK 0.814 / 0.892 / 0.917 / 0.935
+/// (the same to 0.001 with 40 steps of Δt 0.025). The shortfall falls by
+/// 1.67 (both schemes) from 32³ to 64³, about first order; extrapolated at
+/// first order the ratio tends to 0.957 (SL) and 0.978 (QUICK). With the
+/// source injected as its cell average instead of point-sampled (a scratch
+/// run replacing `Gas::source`) the ratios at 32³ / 64³ drop to SL 0.729 /
+/// 0.843, QUICK 0.814 / 0.895, and the limits stay 0.957 and 0.976.
+#[test]
+fn hot_cold_rise_converges_to_the_buoyancy_estimate() {
+    for advection in Scheme::ALL {
+        let ratio = |res| {
+            let config = HotColdConfig {
+                solver: SolverConfig {
+                    res,
+                    frames: 20,
+                    advection,
+                    ..SolverConfig::default()
+                },
+                ..Default::default()
+            };
+            let mut sim = config.build().unwrap();
+            sim.step();
+            let y0 = sim.gases[0].density().center_of_mass().y;
+            for _ in 1..config.solver.frames {
+                sim.step();
+            }
+            let rise = (sim.gases[0].density().center_of_mass().y - y0) as f64;
+            let s = &config.solver;
+            rise / buoyant_rise(s.frames, s.dt as f64, s.gravity as f64, 1.0)
+        };
+        let (coarse, fine) = (ratio(32), ratio(64));
+        let limit = 2.0 * fine - coarse;
+        println!(
+            "{advection:?}: rise / estimate {coarse:.3} at 32³, {fine:.3} at 64³, first-order limit {limit:.3}"
+        );
+        assert!(
+            (1.0 - fine) <= 0.75 * (1.0 - coarse),
+            "{advection:?}: shortfall {:.3} at 32³, {:.3} at 64³",
+            1.0 - coarse,
+            1.0 - fine
+        );
+        assert!(
+            (0.93..=1.03).contains(&limit),
+            "{advection:?}: extrapolated rise / estimate {limit:.3}"
+        );
     }
 }

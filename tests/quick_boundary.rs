@@ -163,11 +163,11 @@ fn courant_beyond_stability_substeps_or_refuses() {
             .unwrap();
         assert_eq!(n, 6, "sub-steps at Courant number 6");
         let (lo, hi) = min_max(&dst);
-        assert!(lo.is_finite() && hi.is_finite());
-        // Plain QUICK rings at the sharp edges (overshoots of tens of per cent)
-        // but does not grow; limited QUICK stays exactly within [0, 1].
+        // Plain QUICK rings at the sharp edges (measured range [−0.221, 1.464])
+        // but does not grow — an unstable step would leave any band, and NaN
+        // fails the comparisons; limited QUICK stays exactly within [0, 1].
         let (min, max) = match limiter {
-            Limiter::None => (-0.5, 1.5),
+            Limiter::None => (-0.3, 1.5),
             Limiter::Ultimate => (0.0, 1.0 + 1e-6),
         };
         println!("{limiter:?}: range [{lo}, {hi}] after 6 sub-steps");
