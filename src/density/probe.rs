@@ -233,14 +233,15 @@ mod tests {
         let s = ops::mask(ops::sphere(Vec3::new(2.9, 3.1, 3.3), 1.2));
         let exact = integral(&*s, &d, 4);
         let averaged = cell_averages(&*s, &d, 4).total();
-        // Measured: agree to 3e-8 relative (f32 rounding of the averages);
-        // the point samples at the centres differ by percents.
+        // Measured: 7.23046875 both (equal here; f32 rounding of the
+        // averages could differ by ~1e-7); the point samples at the centres
+        // give 6.875, −4.9 %.
         assert!(
             (averaged - exact).abs() < 1e-6 * exact,
             "{averaged} vs {exact}"
         );
         let point = ScalarGrid::from_field(d, &*s).total();
-        assert!((point - exact).abs() > 1e-3 * exact, "{point} vs {exact}");
+        assert!((point - exact).abs() > 1e-2 * exact, "{point} vs {exact}");
     }
 
     #[test]
