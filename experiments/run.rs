@@ -32,7 +32,7 @@ use serde::Serialize;
 use crate::export::{write_frame_formats, FrameVolumes};
 use crate::frames::{FrameRecord, FrameRender};
 use crate::table::{field_names, Log};
-use smokelab::density::probe::{self, DensityMeasures, DensityProbe};
+use smokelab::density::probe::{DensityMeasures, DensityProbe};
 use smokelab::density::DensityMode;
 use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::io::vdb::VolumeGeometry;
@@ -124,13 +124,10 @@ pub struct RunSummary {
     pub density_mode: DensityMode,
     /// Bytes held by the density representations at the last step.
     pub final_density_bytes: usize,
-    /// Per gas, `∫S dV` (injection per unit time) by 4× supersampling.
+    /// Per gas, `∫S dV`, the injection per unit time of every density mode
+    /// ([`smokelab::simulation::Gas::injected_per_step`]; the `<g>_injected`
+    /// column is this times the simulated time).
     pub source_rates: Vec<f64>,
-    /// Per gas, `Σ S Δx³` on the velocity grid: what the gridded path injects per unit time.
-    pub grid_source_rates: Vec<f64>,
-    /// Per gas, the injection per unit time of its own representation (the
-    /// `<g>_injected` column is this times the simulated time).
-    pub injection_rates: Vec<f64>,
     /// Per gas, the fine-sampled measures at the last step.
     pub final_measures: Vec<DensityMeasures>,
     /// Volume renders written, in frame order, with their statistics.
@@ -145,9 +142,6 @@ pub const PROBE_POINTS: usize = 4096;
 /// point this many cells away leaves the flow unresolved.
 pub const CFL_WARNING: f32 = 10.0;
 
-/// Refinement of the quadrature of `∫S dV` for the injected-mass budget.
-const SOURCE_REFINE: usize = 4;
-
 /// One row of `metrics.csv`: its fields, in order, are the columns (nested
 /// parts flattened; [`metric_columns`] names them):
 /// - `step, time, max_u, cfl, div_rms, div_max` (the discrete divergence the
@@ -157,11 +151,15 @@ const SOURCE_REFINE: usize = 4;
 ///   [`metrics::interpolant_divergence`]), `ke_top_octave` (share of the
 ///   kinetic energy with a wavenumber index beyond `N/4` on some axis: the top
 ///   octave, grid-scale flow; on the fine-measure cadence, `NaN` between);
-/// - per gas `<g>_mass` (∫ρ at 2× the velocity grid), `<g>_injected` (the
-///   exact budget of what the representation injected, `steps · Δt · rate`:
-///   a gridded density adds `S` at the cell centres, rate `Σ S Δx³`;
-///   gridless and SELMA evaluate `S` anywhere, rate `∫S dV` by 4×
-///   supersampling), `<g>_max` (peak ρ at 2×), `<g>_grad` (mean |∇ρ| at 2×),
+/// - per gas `<g>_mass` (∫ρ at 2× the velocity grid), `<g>_injected`
+///   (`∫S dV · t`, the same in every mode: gridless and SELMA evaluate `S`
+///   anywhere, a gridded density adds the cell averages of `S` whose total
+///   is that integral — [`smokelab::simulation::SOURCE_REFINE`]), `<g>_lost`
+///   (`injected − mass`), `<g>_advection` and `<g>_cleared` (gridded:
+///   cumulative change of `Σ ρ Δx³` by advection and by clearing the dry
+///   cells, every step, so `mass = injected + advection + cleared` to
+///   rounding — [`smokelab::simulation::MassBudget`]; `NaN` for gridless and
+///   SELMA), `<g>_max` (peak ρ at 2×), `<g>_grad` (mean |∇ρ| at 2×),
 ///   `<g>_subgrid` (share of spectral energy beyond the velocity grid's
 ///   Nyquist index) — see [`smokelab::density::probe`]; the fine measures
 ///   are `NaN` on steps without them;
@@ -201,6 +199,9 @@ struct StepColumns {
 struct GasColumns {
     mass: f64,
     injected: f64,
+    lost: f64,
+    advection: f64,
+    cleared: f64,
     max: f64,
     grad: f64,
     subgrid: f64,
@@ -314,11 +315,6 @@ pub fn run_with<C: Serialize>(
         ProgressBar::hidden()
     };
     let domain = *sim.domain();
-    let source_rates: Vec<f64> = sim
-        .gases
-        .iter()
-        .map(|g| probe::integral(&*g.source_field, &domain, SOURCE_REFINE))
-        .collect();
     let mut summary = RunSummary {
         grid: GridRecord {
             origin: domain.origin.to_array(),
@@ -338,17 +334,7 @@ pub fn run_with<C: Serialize>(
             .first()
             .map_or_else(Default::default, |g| g.model.mode()),
         final_density_bytes: 0,
-        grid_source_rates: sim.gases.iter().map(|g| g.source.total()).collect(),
-        injection_rates: sim
-            .gases
-            .iter()
-            .zip(&source_rates)
-            .map(|(g, &exact)| match g.model.mode() {
-                DensityMode::Gridded => g.source.total(),
-                DensityMode::Gridless | DensityMode::Selma => exact,
-            })
-            .collect(),
-        source_rates,
+        source_rates: sim.gases.iter().map(|g| g.injected_per_step(1.0)).collect(),
         final_measures: vec![],
         renders: vec![],
     };
@@ -424,23 +410,30 @@ pub fn run_with<C: Serialize>(
             let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
             summary.renders.push(record);
         }
-        let gases = summary
-            .injection_rates
+        let t = frame as f64 * sim.params.dt as f64;
+        let gases = sim
+            .gases
             .iter()
+            .zip(&summary.source_rates)
             .enumerate()
-            .map(|(n, rate)| {
+            .map(|(n, (g, rate))| {
                 let m = measures.as_ref().map(|m| m[n]);
+                let gridded = g.model.mode() == DensityMode::Gridded;
+                let on_grid = |v: f64| if gridded { v } else { f64::NAN };
+                let mass = m.map_or(f64::NAN, |m| m.mass);
                 GasColumns {
-                    mass: m.map_or(f64::NAN, |m| m.mass),
-                    injected: frame as f64 * sim.params.dt as f64 * rate,
+                    mass,
+                    injected: t * rate,
+                    lost: t * rate - mass,
+                    advection: on_grid(g.budget.advection),
+                    cleared: on_grid(g.budget.cleared),
                     max: m.map_or(f64::NAN, |m| m.max),
                     grad: m.map_or(f64::NAN, |m| m.mean_gradient),
                     subgrid: m.map_or(f64::NAN, |m| m.subgrid_fraction),
                 }
             })
             .collect();
-        let injected_total =
-            frame as f64 * sim.params.dt as f64 * summary.injection_rates.iter().sum::<f64>();
+        let injected_total = t * summary.source_rates.iter().sum::<f64>();
         let obstacles = sim.boundary.as_ref().map(|b| {
             let densities: Vec<_> = sim.gases.iter().map(|g| g.density()).collect();
             let leak = b.leak(&sim.velocity, &densities);

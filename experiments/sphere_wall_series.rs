@@ -23,6 +23,7 @@ use crate::table::read_rows;
 use smokelab::density::probe;
 use smokelab::domain::Domain;
 use smokelab::fit::{linear_fit, LinearFit};
+use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::render::camera::Camera;
 use smokelab::render::output::{self, Display};
@@ -101,20 +102,28 @@ pub(crate) enum Holding {
 }
 
 impl Holding {
-    /// Build the wall after all `F` frames.
-    fn advect(self, wall: &Wall, flow: &FlowHistory) -> Result<AdvectedWall> {
+    /// Build the wall after all `F` frames; with gridded frames, also the
+    /// rows' grid mass `Σ ρ Δx³` when sampled (frame 0) and after the
+    /// gridded frames.
+    fn advect(self, wall: &Wall, flow: &FlowHistory) -> Result<(AdvectedWall, Option<[f64; 2]>)> {
         let f = flow.frames();
         Ok(match self {
             Holding::Gridless { frames } => {
                 let k = frames.min(f);
                 if k == f {
-                    AdvectedWall::gridless(wall, None, flow, f)?
+                    (AdvectedWall::gridless(wall, None, flow, f)?, None)
                 } else {
                     let mut g = GriddedWall::new(wall, flow.domain);
+                    let total = |g: &GriddedWall| g.grids.iter().map(|r| r.total()).sum::<f64>();
+                    let sampled = total(&g);
                     for _ in 0..f - k {
                         g.advance(flow);
                     }
-                    AdvectedWall::gridless(wall, Some(&g), flow, k)?
+                    let advected = total(&g);
+                    (
+                        AdvectedWall::gridless(wall, Some(&g), flow, k)?,
+                        Some([sampled, advected]),
+                    )
                 }
             }
             Holding::Selma { factor } => {
@@ -122,7 +131,7 @@ impl Holding {
                 for _ in 0..f {
                     s.advance(flow);
                 }
-                AdvectedWall::selma(wall, &s)
+                (AdvectedWall::selma(wall, &s), None)
             }
         })
     }
@@ -186,20 +195,37 @@ pub(crate) fn render_wall(
     Ok((output::preview(&r.image, &Display::default()), r.stats))
 }
 
-/// `Σ_rows ∫ρ dV` at twice the velocity grid's resolution.
-fn mass(state: &AdvectedWall, flow: &FlowHistory) -> f64 {
-    state
-        .rows
-        .iter()
-        .map(|r| probe::integral(&**r, &flow.domain, 2))
-        .sum()
+/// Refinement of the sampling that measures the wall, per axis.
+const MEASURE_REFINE: usize = 2;
+
+/// Of the wall sampled at [`MEASURE_REFINE`]× the velocity grid: its mass
+/// `Σ_rows ∫ρ dV` and the mean over rows of each row's largest density
+/// (the peak, what diffusion lowers even where mass is kept).
+fn measure(state: &AdvectedWall, flow: &FlowHistory) -> (f64, f64) {
+    let mut grid = ScalarGrid::zeros(flow.domain.refined(MEASURE_REFINE));
+    let (mut mass, mut peak) = (0.0, 0.0);
+    for r in &state.rows {
+        grid.write_field(&**r);
+        mass += grid.total();
+        peak += grid.max_abs() as f64;
+    }
+    (mass, peak / state.rows.len() as f64)
 }
+
+/// Refinement of the quadrature of the analytic wall's `∫ρ₀ dV`.
+const EXACT_REFINE: usize = 8;
 
 /// The one-picture experiments: run the flow, hold the wall as `holding`,
 /// render it with march step `cell / march_div`, and write `render.png`,
-/// `initial_final.png` (fig 7.3 beside the result), `data.csv` (one row:
-/// frames gridded and gridless, march step, render seconds and samples,
-/// density bytes, mass kept) and `manifest.json`.
+/// `initial_final.png` (fig 7.3 beside the result), `data.csv` and
+/// `manifest.json`. `data.csv` has one row: frames gridded and gridless,
+/// SELMA map cells, march step, render seconds and samples, density bytes,
+/// `mass_kept` (`∫ρ_F / ∫ρ₀`, both at 2× sampling, `ρ₀` the analytic wall),
+/// `peak_kept` (the same of the mean row peak), and for gridded holdings the
+/// two factors of the gridded part's mass, `mass_sampled` (the rows sampled
+/// at the cell centres, `Σ ρ Δx³`, over `∫ρ₀` at [`EXACT_REFINE`]×) and
+/// `mass_advected` (`Σ ρ Δx³` after the gridded frames over that at frame 0;
+/// both `NaN` without gridded frames), and the setup seconds.
 pub(crate) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Result<()> {
     let start = Instant::now();
     let (w, h) = picture_size(ctx.size);
@@ -207,7 +233,7 @@ pub(crate) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Re
     let f = flow.frames();
     let initial = AdvectedWall::gridless(&wall, None, &flow, 0)?;
     let t = Instant::now();
-    let state = holding.advect(&wall, &flow)?;
+    let (state, grid_mass) = holding.advect(&wall, &flow)?;
     let setup_seconds = t.elapsed().as_secs_f64();
     let (img, stats) = render_wall(&state, &flow, march_div, (w, h))?;
     let (img0, _) = render_wall(&initial, &flow, 10.0, (w, h))?;
@@ -220,11 +246,19 @@ pub(crate) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Re
         Holding::Gridless { frames } => (f - frames.min(f), frames.min(f), 0),
         Holding::Selma { factor } => (0, 0, factor * config.res),
     };
-    let m0 = mass(&initial, &flow);
-    let mass_kept = mass(&state, &flow) / m0;
+    let (m0, p0) = measure(&initial, &flow);
+    let (m, p) = measure(&state, &flow);
+    let (mass_kept, peak_kept) = (m / m0, p / p0);
+    let exact: f64 = wall
+        .rows
+        .iter()
+        .map(|r| probe::integral(&**r, &flow.domain, EXACT_REFINE))
+        .sum();
+    let [mass_sampled, mass_advected] =
+        grid_mass.map_or([f64::NAN; 2], |[m0, mf]| [m0 / exact, mf / m0]);
     let csv = format!(
-        "gridded_frames,gridless_frames,selma_map_res,march_step,render_seconds,samples,density_bytes,mass_kept,setup_seconds\n\
-         {gridded},{gridless},{map},{},{},{},{},{mass_kept},{setup_seconds}\n",
+        "gridded_frames,gridless_frames,selma_map_res,march_step,render_seconds,samples,density_bytes,mass_kept,peak_kept,mass_sampled,mass_advected,setup_seconds\n\
+         {gridded},{gridless},{map},{},{},{},{},{mass_kept},{peak_kept},{mass_sampled},{mass_advected},{setup_seconds}\n",
         stats.step,
         stats.seconds,
         stats.samples,
@@ -241,6 +275,9 @@ pub(crate) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Re
         "render": stats,
         "density_bytes": state.bytes(),
         "mass_kept": mass_kept,
+        "peak_kept": peak_kept,
+        "mass_sampled": mass_sampled,
+        "mass_advected": mass_advected,
         "setup_seconds": setup_seconds,
     });
     io::write_json(
