@@ -66,7 +66,7 @@ use smokelab::field::ops::{self, constant, constant_vector, identity, vector_sum
 use smokelab::field::{Scalar, Vector};
 use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, manifest::Manifest, preview};
-use smokelab::simulation::{Gas, Simulation, StepParams};
+use smokelab::simulation::{Gas, MassBudget, Simulation, StepParams};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -288,6 +288,7 @@ fn cloud_gas(sim: &Simulation, cloud: Scalar, map_cells: usize) -> Gas {
         source: ScalarGrid::zeros(domain),
         source_field: constant(0.0),
         lift: 0.0,
+        budget: MassBudget::default(),
     }
 }
 
