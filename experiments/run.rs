@@ -18,7 +18,7 @@
 //!   `metrics_every` steps and the last, `NaN` in between;
 //! - `manifest.json` — configuration, machine, commit, wall time, peak memory;
 //!   written at the start with `"status": "running"`, rewritten at the end
-//!   with `"status": "complete"`.
+//!   with `"status": "complete"`, or `"failed"` and the error if a step fails.
 //!
 //! Frame `N` is the state after `N` steps.
 
@@ -26,7 +26,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Result};
-use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
 use crate::export::{write_frame_formats, FrameVolumes};
@@ -306,14 +305,7 @@ pub fn run_with<C: Serialize>(
 ) -> Result<RunSummary> {
     let start = Instant::now();
     let mut csv = Log::create(opts.out.join("metrics.csv"), &metric_columns(sim))?;
-    let bar = if opts.progress {
-        ProgressBar::new(opts.frames as u64).with_style(
-            ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} steps {msg}")
-                .expect("static template"),
-        )
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = crate::progress::bar(opts.frames as u64, "steps", opts.progress);
     let domain = *sim.domain();
     let mut summary = RunSummary {
         grid: GridRecord {
@@ -346,157 +338,176 @@ pub fn run_with<C: Serialize>(
     if let Some(b) = &sim.boundary {
         io::write_npy3(&opts.out.join("obstacle.npy"), b.level().data())?;
     }
-    let mut pvd = opts
-        .paraview
-        .then(|| PvdCollection::new(opts.out.join("run.pvd")));
-    let mut probe = DensityProbe::new(domain);
-    let points = metrics::probe_points(&domain, PROBE_POINTS, 1);
-    let mut spectrum = SpectralShare::new(domain.dims);
-    let every = opts.metrics_every.max(1);
-    let mut warned_cfl = false;
-    for frame in 1..=opts.frames {
-        if let Err(e) = sim.try_step() {
-            bail!(
-                "step {frame}: {e}; frames written so far are in {}",
-                opts.out.display()
-            );
-        }
-        let mut times = sim.times;
-        let finite = sim.velocity.is_finite();
-        if !finite {
-            bail!(
-                "velocity became non-finite at step {frame}; frames written so far are in {}",
-                opts.out.display()
-            );
-        }
-        // The per-step measures: one pass over the faces or cells each, and
-        // the interpolant at PROBE_POINTS points; timed with the others.
-        let (max_u, div, div_interp, mirror, vel_mirror) = timed(&mut times.metrics, || {
-            (
-                sim.velocity.max_norm(),
-                metrics::divergence_stats(&sim.velocity),
-                metrics::interpolant_divergence(&sim.velocity, &domain, &points),
-                (sim.gases.len() == 2)
-                    .then(|| metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density())),
-                metrics::velocity_mirror_error(&sim.velocity),
-            )
-        });
-        let cfl = max_u * sim.params.dt / sim.domain().cell;
-        let measuring = frame % every == 0 || frame == opts.frames;
-        let measures: Option<Vec<DensityMeasures>> = measuring.then(|| {
-            timed(&mut times.metrics, || {
-                sim.gases.iter().map(|g| probe.measure(&g.model)).collect()
-            })
-        });
-        // The spectrum is periodic; in a closed box the share is not defined.
-        let ke_top_octave = if measuring && sim.velocity.kind() == BoxKind::Periodic {
-            timed(&mut times.metrics, || {
-                metrics::top_octave_share(&mut spectrum, &sim.velocity)
-            })
-        } else {
-            f64::NAN
-        };
-        if opts.save.contains(frame, opts.frames) {
-            timed(&mut times.output, || {
-                write_frame(sim, &opts.out, frame, opts.sample_res)?;
-                write_exchange(sim, &opts.out, frame, opts.vdb, pvd.as_mut())?;
-                at_saved(sim, frame)
-            })?;
-            summary.saved_frames.push(frame);
-            summary.previews.push(preview_path(&opts.out, frame));
-        }
-        let density_bytes = sim.density_bytes();
-        if let Some(r) = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames)) {
-            let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
-            summary.renders.push(record);
-        }
-        let t = frame as f64 * sim.params.dt as f64;
-        let gases = sim
-            .gases
-            .iter()
-            .zip(&summary.source_rates)
-            .enumerate()
-            .map(|(n, (g, rate))| {
-                let m = measures.as_ref().map(|m| m[n]);
-                let gridded = g.model.mode() == DensityMode::Gridded;
-                let on_grid = |v: f64| if gridded { v } else { f64::NAN };
-                let mass = m.map_or(f64::NAN, |m| m.mass);
-                GasColumns {
-                    mass,
-                    injected: t * rate,
-                    lost: t * rate - mass,
-                    advection: on_grid(g.budget.advection),
-                    cleared: on_grid(g.budget.cleared),
-                    max: m.map_or(f64::NAN, |m| m.max),
-                    grad: m.map_or(f64::NAN, |m| m.mean_gradient),
-                    subgrid: m.map_or(f64::NAN, |m| m.subgrid_fraction),
-                }
-            })
-            .collect();
-        let injected_total = t * summary.source_rates.iter().sum::<f64>();
-        let obstacles = sim.boundary.as_ref().map(|b| {
-            let densities: Vec<_> = sim.gases.iter().map(|g| g.density()).collect();
-            let leak = b.leak(&sim.velocity, &densities);
-            let (iterations, residual) = sim.advector().face_projection_stats().unwrap_or((0, 0.0));
-            let cg = sim.cg_report();
-            ObstacleColumns {
-                div_fluid_rms: leak.div_fluid.rms,
-                div_fluid_max: leak.div_fluid.max,
-                closed_flux_max: leak.closed_flux_max,
-                obstacle_mass: leak.mass_inside,
-                obstacle_fraction: leak.mass_fraction,
-                retained: leak.mass_fluid / injected_total,
-                cg_iterations: cg.map_or(0, |c| c.iterations),
-                cg_residual: cg.map_or(f64::NAN, |c| c.residual),
-                face_cg_iterations: iterations,
-                face_div_rel: residual,
+    // The steps; an error ends the run with a `failed` manifest naming it.
+    let steps = (|| -> Result<()> {
+        let mut pvd = opts
+            .paraview
+            .then(|| PvdCollection::new(opts.out.join("run.pvd")));
+        let mut probe = DensityProbe::new(domain);
+        let points = metrics::probe_points(&domain, PROBE_POINTS, 1);
+        let mut spectrum = SpectralShare::new(domain.dims);
+        let every = opts.metrics_every.max(1);
+        let mut warned_cfl = false;
+        for frame in 1..=opts.frames {
+            if let Err(e) = sim.try_step() {
+                bail!(
+                    "step {frame}: {e}; frames written so far are in {}",
+                    opts.out.display()
+                );
             }
-        });
-        csv.push(&MetricsRow {
-            step: StepColumns {
-                step: frame,
-                time: sim.time(),
-                max_u,
-                cfl,
-                div_rms: div.rms,
-                div_max: div.max,
-                div_interp_rms: div_interp.rms,
-                div_interp_max: div_interp.max,
-                ke_top_octave,
-            },
-            gases,
-            mirror_error: mirror.into_iter().collect(),
-            flow: FlowColumns {
-                vel_mirror_error: vel_mirror,
-                density_bytes,
-                substeps: sim.advector().substeps(),
-            },
-            obstacles: obstacles.into_iter().collect(),
-            times: times.into(),
-        })?;
-        let s = &mut summary.stage_seconds;
-        s.advect += times.advect;
-        s.density += times.density;
-        s.force += times.force;
-        s.project += times.project;
-        s.output += times.output;
-        s.metrics += times.metrics;
-        summary.final_mirror_error = mirror;
-        summary.final_density_bytes = density_bytes;
-        if let Some(m) = measures {
-            summary.final_measures = m;
-        }
-        if cfl > CFL_WARNING && !warned_cfl {
-            warned_cfl = true;
-            bar.suspend(|| {
-                eprintln!(
-                    "warning: CFL number {cfl:.3e} at step {frame} (max|u| {max_u:.3e} × dt / cell); \
-                     the flow is not resolved above {CFL_WARNING}: lower --dt or --gravity"
+            let mut times = sim.times;
+            let finite = sim.velocity.is_finite();
+            if !finite {
+                bail!(
+                    "velocity became non-finite at step {frame}; frames written so far are in {}",
+                    opts.out.display()
+                );
+            }
+            // The per-step measures: one pass over the faces or cells each, and
+            // the interpolant at PROBE_POINTS points; timed with the others.
+            let (max_u, div, div_interp, mirror, vel_mirror) = timed(&mut times.metrics, || {
+                (
+                    sim.velocity.max_norm(),
+                    metrics::divergence_stats(&sim.velocity),
+                    metrics::interpolant_divergence(&sim.velocity, &domain, &points),
+                    (sim.gases.len() == 2).then(|| {
+                        metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density())
+                    }),
+                    metrics::velocity_mirror_error(&sim.velocity),
                 )
             });
+            let cfl = max_u * sim.params.dt / sim.domain().cell;
+            let measuring = frame % every == 0 || frame == opts.frames;
+            let measures: Option<Vec<DensityMeasures>> = measuring.then(|| {
+                timed(&mut times.metrics, || {
+                    sim.gases.iter().map(|g| probe.measure(&g.model)).collect()
+                })
+            });
+            // The spectrum is periodic; in a closed box the share is not defined.
+            let ke_top_octave = if measuring && sim.velocity.kind() == BoxKind::Periodic {
+                timed(&mut times.metrics, || {
+                    metrics::top_octave_share(&mut spectrum, &sim.velocity)
+                })
+            } else {
+                f64::NAN
+            };
+            if opts.save.contains(frame, opts.frames) {
+                timed(&mut times.output, || {
+                    write_frame(sim, &opts.out, frame, opts.sample_res)?;
+                    write_exchange(sim, &opts.out, frame, opts.vdb, pvd.as_mut())?;
+                    at_saved(sim, frame)
+                })?;
+                summary.saved_frames.push(frame);
+                summary.previews.push(preview_path(&opts.out, frame));
+            }
+            let density_bytes = sim.density_bytes();
+            if let Some(r) = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames)) {
+                let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
+                summary.renders.push(record);
+            }
+            let t = frame as f64 * sim.params.dt as f64;
+            let gases = sim
+                .gases
+                .iter()
+                .zip(&summary.source_rates)
+                .enumerate()
+                .map(|(n, (g, rate))| {
+                    let m = measures.as_ref().map(|m| m[n]);
+                    let gridded = g.model.mode() == DensityMode::Gridded;
+                    let on_grid = |v: f64| if gridded { v } else { f64::NAN };
+                    let mass = m.map_or(f64::NAN, |m| m.mass);
+                    GasColumns {
+                        mass,
+                        injected: t * rate,
+                        lost: t * rate - mass,
+                        advection: on_grid(g.budget.advection),
+                        cleared: on_grid(g.budget.cleared),
+                        max: m.map_or(f64::NAN, |m| m.max),
+                        grad: m.map_or(f64::NAN, |m| m.mean_gradient),
+                        subgrid: m.map_or(f64::NAN, |m| m.subgrid_fraction),
+                    }
+                })
+                .collect();
+            let injected_total = t * summary.source_rates.iter().sum::<f64>();
+            let obstacles = sim.boundary.as_ref().map(|b| {
+                let densities: Vec<_> = sim.gases.iter().map(|g| g.density()).collect();
+                let leak = b.leak(&sim.velocity, &densities);
+                let (iterations, residual) =
+                    sim.advector().face_projection_stats().unwrap_or((0, 0.0));
+                let cg = sim.cg_report();
+                ObstacleColumns {
+                    div_fluid_rms: leak.div_fluid.rms,
+                    div_fluid_max: leak.div_fluid.max,
+                    closed_flux_max: leak.closed_flux_max,
+                    obstacle_mass: leak.mass_inside,
+                    obstacle_fraction: leak.mass_fraction,
+                    retained: leak.mass_fluid / injected_total,
+                    cg_iterations: cg.map_or(0, |c| c.iterations),
+                    cg_residual: cg.map_or(f64::NAN, |c| c.residual),
+                    face_cg_iterations: iterations,
+                    face_div_rel: residual,
+                }
+            });
+            csv.push(&MetricsRow {
+                step: StepColumns {
+                    step: frame,
+                    time: sim.time(),
+                    max_u,
+                    cfl,
+                    div_rms: div.rms,
+                    div_max: div.max,
+                    div_interp_rms: div_interp.rms,
+                    div_interp_max: div_interp.max,
+                    ke_top_octave,
+                },
+                gases,
+                mirror_error: mirror.into_iter().collect(),
+                flow: FlowColumns {
+                    vel_mirror_error: vel_mirror,
+                    density_bytes,
+                    substeps: sim.advector().substeps(),
+                },
+                obstacles: obstacles.into_iter().collect(),
+                times: times.into(),
+            })?;
+            let s = &mut summary.stage_seconds;
+            s.advect += times.advect;
+            s.density += times.density;
+            s.force += times.force;
+            s.project += times.project;
+            s.output += times.output;
+            s.metrics += times.metrics;
+            summary.final_mirror_error = mirror;
+            summary.final_density_bytes = density_bytes;
+            if let Some(m) = measures {
+                summary.final_measures = m;
+            }
+            if cfl > CFL_WARNING && !warned_cfl {
+                warned_cfl = true;
+                bar.suspend(|| {
+                    eprintln!(
+                        "warning: CFL number {cfl:.3e} at step {frame} (max|u| {max_u:.3e} × dt / cell); \
+                         the flow is not resolved above {CFL_WARNING}: lower --dt or --gravity"
+                    )
+                });
+            }
+            bar.set_message(format!("max|u| {max_u:.3}"));
+            bar.inc(1);
         }
-        bar.set_message(format!("max|u| {max_u:.3}"));
-        bar.inc(1);
+        Ok(())
+    })();
+    if let Err(e) = steps {
+        bar.abandon();
+        io::write_json(
+            &opts.out.join("manifest.json"),
+            &Manifest::failed(
+                config,
+                seed,
+                start.elapsed().as_secs_f64(),
+                format!("{e:#}"),
+            ),
+        )?;
+        return Err(e);
     }
     bar.finish_and_clear();
     summary.wall_seconds = start.elapsed().as_secs_f64();

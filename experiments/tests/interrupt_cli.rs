@@ -86,3 +86,27 @@ fn an_interrupted_run_says_running_and_leaves_only_whole_files() {
     // Frames 1 and 2 whole (hot, cold, u, v, w, vel), and frame 3's hot.
     assert!(volumes > 2 * 6, "only {volumes} volumes");
 }
+
+/// A run that stops on an error (here the velocity overflows at step 2)
+/// exits 1 and rewrites its manifest as `failed`, naming the error.
+#[test]
+fn a_failed_run_says_failed_with_its_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let o = Command::new(env!("CARGO_BIN_EXE_smokelab"))
+        .args(["run", "hot-cold", "--res", "16", "--frames", "5"])
+        .args(["--gravity", "1e38", "--quiet", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        o.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let m = manifest(&out);
+    assert_eq!(m["status"], "failed");
+    let error = m["extra"]["error"].as_str().unwrap();
+    assert!(error.contains("non-finite at step 2"), "{error}");
+}

@@ -43,8 +43,9 @@ impl Machine {
 pub const BUILD_COMMIT: &str = env!("SMOKELAB_COMMIT");
 
 /// Whether the work a manifest describes has finished: a run writes its
-/// manifest `running` at the start and `complete` at the end, so a manifest
-/// that still says `running` belongs to a run that was stopped.
+/// manifest `running` at the start and `complete` at the end, or `failed`
+/// (with the error in `extra.error`) when it stops on an error, so a
+/// manifest that still says `running` belongs to a run that was killed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Status {
@@ -52,6 +53,8 @@ pub enum Status {
     Running,
     /// Finished; every output is written.
     Complete,
+    /// Stopped on an error; the outputs written before it stay.
+    Failed,
 }
 
 /// The manifest written beside every run's outputs.
@@ -94,6 +97,20 @@ impl<C: Serialize> Manifest<C> {
             wall_seconds,
             peak_memory_bytes: crate::timing::peak_rss_bytes(),
             extra,
+        }
+    }
+
+    /// The manifest of work on `config` that stopped after `wall_seconds`
+    /// on `error`, recorded as `extra.error`.
+    pub fn failed(config: C, seed: u64, wall_seconds: f64, error: String) -> Self {
+        Self {
+            status: Status::Failed,
+            ..Self::new(
+                config,
+                seed,
+                wall_seconds,
+                serde_json::json!({ "error": error }),
+            )
         }
     }
 
