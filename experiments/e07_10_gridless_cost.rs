@@ -27,7 +27,7 @@ use std::time::Instant;
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{plot_costs, study_size, CostRow, Setup};
+use crate::sphere_wall_series::{owned_frames, plot_costs, study_size, warm_up, CostRow, Setup};
 use crate::table::write_rows;
 use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::scenario::sphere_wall::{AdvectedWall, GriddedWall};
@@ -50,6 +50,11 @@ fn run(ctx: &Context) -> Result<()> {
     let (w, h) = study_size(ctx.size);
     let Setup { config, flow, wall } = Setup::new(ctx)?;
     let f = flow.frames();
+    warm_up(
+        &AdvectedWall::gridless(&wall, None, &flow, 0)?,
+        &flow,
+        (w, h),
+    )?;
     let mut gridded = GriddedWall::new(&wall, flow.domain);
     let mut rows = vec![];
     let mut strip = vec![];
@@ -59,9 +64,12 @@ fn run(ctx: &Context) -> Result<()> {
         while gridded.frame() < f - k {
             gridded.advance(&flow);
         }
-        let state = AdvectedWall::gridless(&wall, Some(&gridded), &flow, k)?;
         for (series, div) in MARCHES {
-            let (row, img) = CostRow::measure(series, k, &state, &flow, div, (w, h))?;
+            let build = || {
+                let own = owned_frames(&flow, f - k..f);
+                Ok(AdvectedWall::gridless(&wall, Some(&gridded), &own, k)?)
+            };
+            let (row, img) = CostRow::measure(series, k, build, &flow, div, (w, h))?;
             rows.push(row);
             if div > 1.0 {
                 strip.push(img);

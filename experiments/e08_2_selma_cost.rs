@@ -28,7 +28,7 @@ use std::time::Instant;
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{plot_costs, study_size, CostRow, Setup};
+use crate::sphere_wall_series::{owned_frames, plot_costs, study_size, warm_up, CostRow, Setup};
 use crate::table::write_rows;
 use smokelab::io::{self, manifest::Manifest};
 use smokelab::scenario::sphere_wall::{AdvectedWall, SelmaWall};
@@ -51,28 +51,37 @@ fn run(ctx: &Context) -> Result<()> {
     let (w, h) = study_size(ctx.size);
     let Setup { config, flow, wall } = Setup::new(ctx)?;
     let f = flow.frames();
-    let mut selma = [
-        ("selma", SelmaWall::new(&flow, None)?),
-        ("selma-fine", SelmaWall::new(&flow, Some(2 * config.res))?),
-    ];
+    warm_up(
+        &AdvectedWall::gridless(&wall, None, &flow, 0)?,
+        &flow,
+        (w, h),
+    )?;
+    let unadvected = SelmaWall::new(&flow, None)?;
+    warm_up(&AdvectedWall::selma(&wall, &unadvected), &flow, (w, h))?;
     let mut rows = vec![];
-    let mut measure = |series: &str, state: &AdvectedWall, n: usize| -> Result<()> {
-        let (row, _) = CostRow::measure(series, n, state, &flow, MARCH_DIV, (w, h))?;
+    let mut measure = |series: &str, n: usize, build: &dyn Fn() -> Result<AdvectedWall>| {
+        let (row, _) = CostRow::measure(series, n, build, &flow, MARCH_DIV, (w, h))?;
         rows.push(row);
-        Ok(())
+        anyhow::Ok(())
     };
     for i in 0..=6 {
         let n = i * f / 6;
-        measure(
-            "gridless",
-            &AdvectedWall::gridless(&wall, None, &flow, n)?,
-            n,
-        )?;
-        for (name, s) in &mut selma {
-            while s.frame() < n {
-                s.advance(&flow);
-            }
-            measure(name, &AdvectedWall::selma(&wall, s), n)?;
+        measure("gridless", n, &|| {
+            Ok(AdvectedWall::gridless(
+                &wall,
+                None,
+                &owned_frames(&flow, 0..n),
+                n,
+            )?)
+        })?;
+        for (name, map) in [("selma", None), ("selma-fine", Some(2 * config.res))] {
+            measure(name, n, &|| {
+                let mut s = SelmaWall::new(&flow, map)?;
+                while s.frame() < n {
+                    s.advance(&flow);
+                }
+                Ok(AdvectedWall::selma(&wall, &s))
+            })?;
         }
     }
     write_rows(&ctx.out.join("data.csv"), &rows)?;

@@ -14,10 +14,12 @@ pub mod render_command;
 pub mod noise_command;
 pub mod paper;
 pub mod progress;
+pub mod memory;
 
 // Figures and tables.
 pub mod plot;
 pub mod table;
+pub mod growth;
 
 // Numbered experiments: the registry, their shared pieces, one file each.
 pub mod registry;
