@@ -107,7 +107,7 @@ fn measured_memory_grows_one_grid_per_gridless_frame_and_is_flat_for_selma() {
             "{name}: heap grows {per_frame} grids per frame, r² {}",
             heap.r2
         );
-        // RSS, pages after malloc_trim: measured 1.4–1.5 grids per frame,
+        // RSS, pages after malloc_trim: measured 1.3–1.5 grids per frame,
         // r² 0.91–0.98 (coarse: the allocator's arenas and page rounding).
         let rss = growth(&series(&t, name, "rss_peak_bytes"), name);
         let per_frame = rss.fit.slope / VELOCITY_GRID;
