@@ -12,7 +12,10 @@
 //! 4.5, 5.0 — the caption's values times ten — gives the familiar family of
 //! forward-peaked curves. Those are plotted; the manifest records the
 //! literal caption values' range as evidence. Petzold's measured curves of
-//! the notes' figure are not reproduced (no data in the repository).
+//! the notes' figure are not reproduced: no data in the repository, and no
+//! package found ships a published Petzold table (the crates.io, PyPI and
+//! npm package lists and Debian's `apt-cache search` were searched for
+//! "petzold", "volume scattering" and "phase function", Nov 2026).
 //!
 //! Run: `smokelab experiment A-2` (well under a second).
 //!

@@ -15,13 +15,22 @@
 //! `--full` 1024², `--smoke` 96²).
 //!
 //! Writes `results/N-3/`: `fig3.png` (the three panels side by side, left to
-//! right value, fast, smooth), `data.csv` (per panel: RMS
+//! right value, fast, smooth), `costs.csv` (the cost claim of `000_…` §3–4,
+//! fast < value < smooth: ns per evaluation of each basis noise, 3D and
+//! 2D, one octave, measured in this run — [`costs`]; `manifest.json` says
+//! whether the ordering holds), `data.csv` (per panel: RMS
 //! and 99th-percentile speed, mean |∇·V| and mean |∇V| by central differences
 //! with h = 10⁻³ on a 128² subgrid, and their ratio), `manifest.json`.
 //! The central-difference ratio is O(1) for value noise, O(h²) for smooth
 //! simulation noise, and O(h) for fast simulation noise: not divergence —
 //! its flux through any closed curve is zero — but stencils that straddle a
 //! cell face see the kink of `V_x` there, and `|∇V|` picks up its jumps.
+//!
+//! The costs, measured (three default runs on a loaded 2-core machine,
+//! ratios stable to 3 %): fast 13.8 ns, smooth 1.03× fast, value 1.60–1.64×
+//! fast in 3D; in 2D smooth 1.05×, value 1.93×. Fast < smooth holds,
+//! narrowly; value is the dearest, so `000_…`'s fast < value < smooth does
+//! not hold for this implementation. Operation counts are not counted.
 
 use std::time::Instant;
 
@@ -79,6 +88,70 @@ fn divergence_stats(field: &dyn VectorField, extent: f32, n: usize, h: f32) -> (
     }
     let cells = (n * n) as f64;
     (div / cells, grad / cells)
+}
+
+/// One row of `costs.csv`.
+#[derive(Serialize)]
+struct CostRow {
+    kind: &'static str,
+    /// Median over rounds of the wall time per evaluation, ns.
+    ns_per_eval: f64,
+    /// `ns_per_eval` over the fast simulation noise's of the same dimension.
+    relative_to_fast: f64,
+}
+
+/// The cost of one evaluation of each kind in `groups` (each group: fast,
+/// value, smooth of one dimension): `eval_batch` over the same 1024 points,
+/// uniform in `[0, 32)³` (`z = 0` in 2D), repeated `rounds` times with the
+/// kinds interleaved within each round, so a load change on the shared
+/// machine hits all of them alike; the median round per kind. Wall times
+/// are only compared within this run (ratios); the criterion benchmark
+/// `benches/noise.rs` measures the same on an idle machine.
+fn costs(groups: &[[NoiseKind; 3]], rounds: usize) -> Result<Vec<CostRow>> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(1);
+    let kinds: Vec<NoiseKind> = groups.iter().flatten().copied().collect();
+    let fields = kinds
+        .iter()
+        .map(|&kind| {
+            NoiseSpec {
+                kind,
+                seed: 1,
+                ..Default::default()
+            }
+            .build()
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let points: Vec<Vec3> = (0..1024)
+        .map(|_| Vec3::new(rng.random(), rng.random(), rng.random()) * 32.0)
+        .collect();
+    let mut out = vec![Vec3::ZERO; points.len()];
+    let mut times = vec![Vec::with_capacity(rounds); kinds.len()];
+    for _ in 0..rounds {
+        for (field, t) in fields.iter().zip(&mut times) {
+            let start = Instant::now();
+            field.eval_batch(&points, &mut out);
+            std::hint::black_box(&out);
+            t.push(start.elapsed().as_secs_f64() * 1e9 / points.len() as f64);
+        }
+    }
+    let medians: Vec<f64> = times
+        .iter_mut()
+        .map(|t| {
+            t.sort_by(f64::total_cmp);
+            t[t.len() / 2]
+        })
+        .collect();
+    Ok(kinds
+        .iter()
+        .zip(&medians)
+        .enumerate()
+        .map(|(i, (kind, &ns))| CostRow {
+            kind: kind.name(),
+            ns_per_eval: ns,
+            relative_to_fast: ns / medians[i - i % 3],
+        })
+        .collect())
 }
 
 fn run(ctx: &Context) -> Result<()> {
@@ -155,6 +228,35 @@ fn run(ctx: &Context) -> Result<()> {
             serde_json::json!({ "rms_speed": rms, "relative_divergence": div / grad }),
         );
     }
+    let rounds = match ctx.size {
+        Size::Smoke => 20,
+        _ => 400,
+    };
+    let cost = costs(
+        &[
+            [NoiseKind::FastSim, NoiseKind::Value, NoiseKind::SmoothSim],
+            [
+                NoiseKind::FastSim2d,
+                NoiseKind::Value2d,
+                NoiseKind::SmoothSim2d,
+            ],
+        ],
+        rounds,
+    )?;
+    write_rows(&ctx.out.join("costs.csv"), &cost)?;
+    let holds: Vec<bool> = cost
+        .chunks(3)
+        .map(|g| g[0].ns_per_eval < g[1].ns_per_eval && g[1].ns_per_eval < g[2].ns_per_eval)
+        .collect();
+    extra.insert(
+        "costs".into(),
+        serde_json::json!({
+            "rounds": rounds,
+            "points": 1024,
+            "ns_per_eval": cost.iter().map(|c| (c.kind, c.ns_per_eval)).collect::<std::collections::BTreeMap<_, _>>(),
+            "fast_lt_value_lt_smooth": {"3d": holds[0], "2d": holds[1]},
+        }),
+    );
     io::write_png(
         &ctx.out.join("fig3.png"),
         &io::preview::side_by_side(&panels, 6),

@@ -15,10 +15,12 @@ pub mod noise_command;
 pub mod paper;
 pub mod claims;
 pub mod progress;
+pub mod memory;
 
 // Figures and tables.
 pub mod plot;
 pub mod table;
+pub mod growth;
 
 // Numbered experiments: the registry, their shared pieces, one file each.
 pub mod registry;

@@ -4,6 +4,13 @@
 //! centres of the cube `[0, size]³`), `slice.png` (line integral convolution
 //! of the in-plane velocity on the middle z plane, coloured by speed), and
 //! `manifest.json`. All input is checked before anything is written.
+//!
+//! The spectral kind is synthesised on the output grid's lattice
+//! ([`NoiseArgs::spec`]), not resampled from the 32³ reference tile: a
+//! trilinear resampling onto 48³ was 3–5 % divergent (central differences
+//! 3.3 %, spectral 4.9 % of |∇u|), whereas the exported grid's trilinear
+//! interpolant now has zero flux through every cell to round-off
+//! (`experiments/tests/noise_cli.rs`).
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -70,7 +77,10 @@ pub struct NoiseArgs {
     /// Finite-difference rule of curl-fd.
     #[arg(long, value_enum, default_value = "central")]
     pub fd_scheme: FdScheme,
-    /// Spectral tile samples per axis.
+    /// Spectral: samples per axis of the reference tile whose spectrum
+    /// `--b` describes. The exported tile has the output grid's spacing
+    /// (`res · period / size` samples per period), B rescaled to keep the
+    /// spectrum in world units.
     #[arg(long, default_value_t = 32, allow_negative_numbers = true)]
     pub tile: usize,
     /// Spectral tile side in world units.
@@ -126,7 +136,7 @@ impl NoiseArgs {
             (None, Some(_)) => 16,
             (None, None) => 1,
         };
-        let spec = NoiseSpec {
+        let mut spec = NoiseSpec {
             kind: self.kind,
             seed: self.seed,
             time: self.time,
@@ -145,7 +155,60 @@ impl NoiseArgs {
             },
         };
         spec.validate()?;
+        if spec.kind == NoiseKind::Spectral {
+            spec.spectral = self.on_output_lattice(&spec)?;
+        }
         Ok(spec)
+    }
+
+    /// The spectral tile synthesised on the output grid's lattice: spacing
+    /// `size / res`, so `N = res · period / size` samples per period, and the
+    /// spectrum's parameter (cycles per sample) scaled by `tile / N` so the
+    /// spectrum in world units is the reference tile's. Every exported
+    /// sample is then the midpoint of a tile cube, the 8-corner mean of its
+    /// samples; averaging commutes with the cube-flux divergence, so the
+    /// exported grid's trilinear interpolant has zero flux through every
+    /// cell, as the tile's has (`noise::spectral`). Octaves are refused:
+    /// each resamples the tile at a scaled, shifted lattice.
+    fn on_output_lattice(&self, spec: &NoiseSpec) -> Result<SpectralParams, InputError> {
+        let domain = self.domain()?;
+        if spec.fractal.octaves != 1 {
+            return Err(InputError::new(format!(
+                "octaves is {}; spectral noise is exported with one octave (its spectrum holds the \
+                 scales; octaves would resample the tile and make the grid divergent)",
+                spec.fractal.octaves
+            )));
+        }
+        let p = spec.spectral;
+        let n = self.res as f64 * p.period as f64 / self.size as f64;
+        let rounded = n.round();
+        if (n - rounded).abs() > 1e-3 * n
+            || rounded as usize % 2 != 0
+            || !(8.0..=256.0).contains(&rounded)
+        {
+            return Err(InputError::new(format!(
+                "--res {} over --size {} samples a spectral period of {} with {n:.3} samples; \
+                 it must be an even whole number in 8..=256 so the tile is the output grid",
+                self.res,
+                domain.size().x,
+                p.period
+            )));
+        }
+        let n = rounded as usize;
+        let ratio = p.res as f32 / n as f32;
+        let spectrum = match p.spectrum {
+            Spectrum::Gaussian { b } => Spectrum::Gaussian { b: b * ratio },
+            Spectrum::Kolmogorov { cutoff } => Spectrum::Kolmogorov {
+                cutoff: cutoff * ratio,
+            },
+        };
+        let tile = SpectralParams {
+            res: n,
+            spectrum,
+            ..p
+        };
+        tile.validate()?;
+        Ok(tile)
     }
 
     fn domain(&self) -> Result<Domain, InputError> {

@@ -10,6 +10,7 @@
 
 use std::io::Write;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Result;
@@ -17,12 +18,13 @@ use glam::Vec3;
 use image::RgbImage;
 use serde::{Deserialize, Serialize};
 
+use crate::growth::{self, Criteria, Trend};
+use crate::memory;
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
 use crate::registry::{Context, Size};
-use crate::table::read_rows;
+use crate::table::{read_rows, write_rows};
 use smokelab::density::probe;
 use smokelab::domain::Domain;
-use smokelab::fit::{linear_fit, LinearFit};
 use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::render::camera::Camera;
@@ -295,51 +297,128 @@ pub(crate) struct CostRow {
     pub frames: usize,
     /// Render wall time, seconds.
     pub render_seconds: f64,
-    /// Bytes held by the density representation.
+    /// Bytes held by the density representation, counted (each buffer once).
     pub density_bytes: usize,
+    /// Measured: the most the heap held at once above its level before,
+    /// while the holding was built and rendered ([`memory::measure`]).
+    pub heap_peak_bytes: usize,
+    /// Measured: the resident set's high-water mark above its level before,
+    /// over the same work (empty where `/proc` cannot be used).
+    pub rss_peak_bytes: Option<usize>,
     /// Camera-ray samples.
     pub samples: u64,
 }
 
 impl CostRow {
-    /// Render `state` with march step `cell / march_div` and record what it
-    /// cost: the row, and the picture.
+    /// Build a holding with `build`, render it with march step
+    /// `cell / march_div`, and record what it cost: the row, and the picture.
+    /// The holding is built inside the measurement and dropped before it
+    /// ends, so everything it allocates is measured; `build` must allocate
+    /// what the holding keeps (see [`owned_frames`]).
     pub fn measure(
         series: &str,
         frames: usize,
-        state: &AdvectedWall,
+        build: impl FnOnce() -> Result<AdvectedWall>,
         flow: &FlowHistory,
         march_div: f32,
         size: (u32, u32),
     ) -> Result<(Self, RgbImage)> {
-        let (img, stats) = render_wall(state, flow, march_div, size)?;
+        let (out, peak) = memory::measure(|| -> Result<_> {
+            let state = build()?;
+            let (img, stats) = render_wall(&state, flow, march_div, size)?;
+            Ok((img, stats, state.bytes()))
+        });
+        let (img, stats, density_bytes) = out?;
         let row = Self {
             series: series.into(),
             frames,
             render_seconds: stats.seconds,
-            density_bytes: state.bytes(),
+            density_bytes,
+            heap_peak_bytes: peak.heap_bytes,
+            rss_peak_bytes: peak.rss_bytes,
             samples: stats.samples,
         };
         Ok((row, img))
     }
 }
 
-/// The fitted slopes of one series: seconds and MiB per frame.
+/// Render `state` once, unmeasured: the first render of a kind of holding
+/// starts the worker threads and their thread-local caches, which would
+/// otherwise be measured in the first point of a cost study (at smoke size
+/// 1 MiB of RSS for the first render, 75 kB of heap for the first SELMA one).
+pub(crate) fn warm_up(state: &AdvectedWall, flow: &FlowHistory, size: (u32, u32)) -> Result<()> {
+    render_wall(state, flow, 1.0, size)?;
+    Ok(())
+}
+
+/// `flow` with frames `range` deep-copied. A gridless holding keeps its
+/// velocity grids; here they would otherwise be shared with the recorded
+/// history (and cost nothing measurable), whereas a simulation keeps them
+/// only for its gridless gases.
+pub(crate) fn owned_frames(flow: &FlowHistory, range: std::ops::Range<usize>) -> FlowHistory {
+    FlowHistory {
+        domain: flow.domain,
+        dt: flow.dt,
+        backtrace: flow.backtrace,
+        velocities: flow
+            .velocities
+            .iter()
+            .enumerate()
+            .map(|(i, u)| {
+                if range.contains(&i) {
+                    Arc::new((**u).clone())
+                } else {
+                    Arc::clone(u)
+                }
+            })
+            .collect(),
+    }
+}
+
+/// Thresholds of the trends reported in `summary.csv`: linear if the fit
+/// grows by ≥ 20 % of the mean over the frames with r² ≥ 0.9, flat within
+/// ±5 %.
+pub(crate) const TRENDS: Criteria = Criteria {
+    min_growth: 0.2,
+    min_r2: 0.9,
+    max_flat: 0.05,
+};
+
+/// One line of a cost study's `summary.csv`: a fitted quantity of a series.
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct SeriesFit {
     /// Series name.
     pub series: String,
-    /// Render time against frames.
-    pub time: Option<LinearFit>,
-    /// Memory (MiB) against frames.
-    pub memory_mib: Option<LinearFit>,
+    /// `render_seconds`, `counted_mib`, `heap_mib` or `rss_mib`.
+    pub quantity: &'static str,
+    /// Least-squares slope per frame (seconds or MiB).
+    pub slope: f64,
+    /// Fitted change over the frames relative to the mean ([`growth`]).
+    pub relative_growth: f64,
+    /// r² of the line.
+    pub r2: f64,
+    /// The verdict under [`TRENDS`].
+    pub trend: Trend,
 }
 
 const MIB: f64 = 1048576.0;
 
-/// Plot render time and memory against frames from `data.csv` of `dir`
-/// (`time.{png,svg}`, `memory.{png,svg}`, both on `costs.png`), each series
-/// with its least-squares slope printed, and return the fits.
+/// The quantities of a cost row that are fitted: name and value.
+type Quantity = (&'static str, fn(&CostRow) -> Option<f64>);
+
+const QUANTITIES: [Quantity; 4] = [
+    ("render_seconds", |r| Some(r.render_seconds)),
+    ("counted_mib", |r| Some(r.density_bytes as f64 / MIB)),
+    ("heap_mib", |r| Some(r.heap_peak_bytes as f64 / MIB)),
+    ("rss_mib", |r| r.rss_peak_bytes.map(|b| b as f64 / MIB)),
+];
+
+/// Plot render time and memory against frames from `data.csv` of `dir`:
+/// `time.{png,svg}`; `memory.{png,svg}` with the counted bytes (solid) and
+/// the measured heap peak (dashed) of each series; `rss.{png,svg}`, the
+/// measured resident-set peak; all three on `costs.png`. Each quantity of
+/// each series is fitted ([`growth::classify`]); the fits are printed on the
+/// plots, written to `summary.csv` and returned.
 pub(crate) fn plot_costs(dir: &Path, title: &str, x_label: &str) -> Result<Vec<SeriesFit>> {
     let rows: Vec<CostRow> = read_rows(&dir.join("data.csv"))?;
     let mut names: Vec<String> = vec![];
@@ -348,64 +427,71 @@ pub(crate) fn plot_costs(dir: &Path, title: &str, x_label: &str) -> Result<Vec<S
             names.push(r.series.clone());
         }
     }
-    let mut time = Plot::new(format!("{title}: render time"), x_label, "render seconds")
-        .legend(LegendPosition::UpperLeft);
-    let mut memory = Plot::new(
-        format!("{title}: memory of the density"),
-        x_label,
-        "MiB held",
-    )
-    .legend(LegendPosition::UpperLeft);
+    // Per plot (time, memory, rss): its series and their fit labels.
+    let mut parts: [Vec<(Series, String)>; 3] = Default::default();
     let mut fits = vec![];
     for (i, name) in names.iter().enumerate() {
-        let pts = |f: &dyn Fn(&CostRow) -> f64| -> Vec<(f64, f64)> {
-            rows.iter()
-                .filter(|r| &r.series == name)
-                .map(|r| (r.frames as f64, f(r)))
-                .collect()
-        };
-        let t = pts(&|r| r.render_seconds);
-        let m = pts(&|r| r.density_bytes as f64 / MIB);
-        let fit = SeriesFit {
-            series: name.clone(),
-            time: linear_fit(&t),
-            memory_mib: linear_fit(&m),
-        };
         let color = PALETTE[i % PALETTE.len()];
-        let y = 0.08 + 0.07 * i as f64;
-        let slope = |f: Option<LinearFit>, unit: &str| {
-            f.map_or("no fit".into(), |f| format!("{:.4} {unit}/frame", f.slope))
-        };
-        time = time
-            .series(
-                Series::line(name, t)
-                    .styled(Style::LineMarkers)
-                    .colored(color),
-            )
-            .annotate(Annotation::at_fraction(
-                0.3,
-                y,
-                format!("{name}: slope {}", slope(fit.time, "s")),
-            ));
-        memory = memory
-            .series(
-                Series::line(name, m)
-                    .styled(Style::LineMarkers)
-                    .colored(color),
-            )
-            .annotate(Annotation::at_fraction(
-                0.3,
-                y,
-                format!("{name}: slope {}", slope(fit.memory_mib, "MiB")),
-            ));
-        fits.push(fit);
+        for (q, (quantity, value)) in QUANTITIES.iter().enumerate() {
+            let pts: Vec<(f64, f64)> = rows
+                .iter()
+                .filter(|r| &r.series == name)
+                .filter_map(|r| Some((r.frames as f64, value(r)?)))
+                .collect();
+            let g = growth::classify(&pts, &TRENDS);
+            let unit = if q == 0 { "s" } else { "MiB" };
+            let short = quantity.split('_').next().unwrap_or(quantity);
+            let label = g.map_or(format!("{name} {short}: no fit"), |g| {
+                format!(
+                    "{name} {short}: {:.4} {unit}/frame, r² {:.2}",
+                    g.fit.slope, g.r2
+                )
+            });
+            let (plot, style) = match q {
+                0 => (0, Style::LineMarkers),
+                1 => (1, Style::LineMarkers),
+                2 => (1, Style::Dashed),
+                _ => (2, Style::LineMarkers),
+            };
+            let series = Series::line(format!("{name} {short}"), pts)
+                .styled(style)
+                .colored(color);
+            parts[plot].push((series, label));
+            if let Some(g) = g {
+                fits.push(SeriesFit {
+                    series: name.clone(),
+                    quantity,
+                    slope: g.fit.slope,
+                    relative_growth: g.relative,
+                    r2: g.r2,
+                    trend: g.trend,
+                });
+            }
+        }
     }
-    let [t_png, _] = time.write(&dir.join("time"))?;
-    let [m_png, _] = memory.write(&dir.join("memory"))?;
-    let imgs = [t_png, m_png]
-        .iter()
-        .map(|p| Ok(image::open(p)?.to_rgb8()))
-        .collect::<Result<Vec<_>>>()?;
+    let plots = [
+        ("time", format!("{title}: render time"), "render seconds"),
+        (
+            "memory",
+            format!("{title}: memory counted (solid), heap peak measured (dashed)"),
+            "MiB",
+        ),
+        ("rss", format!("{title}: resident-set peak measured"), "MiB"),
+    ];
+    let mut imgs = vec![];
+    for ((base, heading, y_label), part) in plots.into_iter().zip(parts) {
+        let mut plot = Plot::new(heading, x_label, y_label).legend(LegendPosition::UpperLeft);
+        for (j, (series, label)) in part.into_iter().enumerate() {
+            plot = plot.series(series).annotate(Annotation::at_fraction(
+                0.35,
+                0.06 + 0.06 * j as f64,
+                label,
+            ));
+        }
+        let [png, _] = plot.write(&dir.join(base))?;
+        imgs.push(image::open(&png)?.to_rgb8());
+    }
+    write_rows(&dir.join("summary.csv"), &fits)?;
     io::write_png(&dir.join("costs.png"), &preview::side_by_side(&imgs, 0))?;
     Ok(fits)
 }
