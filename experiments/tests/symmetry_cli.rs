@@ -126,8 +126,9 @@ fn s1_sees_the_quarter_cell_shift_and_only_it_at_smoke_size() {
     }
     // Gridded SL at 12³, 6 steps. Measured: every case whose symmetry is
     // a lattice symmetry (exact, ½-cell shift, node-centred, offset) stays
-    // within 1e-6 (2.4e-7, 9.0e-7, …); the ¼-cell shift starts at 0.50
-    // (the solid sources cover different cell centres).
+    // within 1e-6 (2.4e-7, 9.0e-7, …); the ¼-cell shift reaches 0.115 (the
+    // cell averages of the shifted solid sources differ from their mirror
+    // images'; 0.50 when gridded sources were point-sampled).
     for exact in ["exact", "half-cell", "node-centred", "offset"] {
         assert!(
             worst[exact] < 1e-5,
@@ -136,7 +137,7 @@ fn s1_sees_the_quarter_cell_shift_and_only_it_at_smoke_size() {
         );
     }
     assert!(
-        worst["quarter-cell"] > 0.2,
+        worst["quarter-cell"] > 0.05,
         "quarter-cell: mirror error {}",
         worst["quarter-cell"]
     );

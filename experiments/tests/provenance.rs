@@ -1,0 +1,51 @@
+//! The committed results name the code that made them: every
+//! `results/**/manifest.json` records one commit, and a clean one
+//! (`experiment all` refuses to write `results/` from a dirty build).
+
+use std::path::{Path, PathBuf};
+
+fn manifests(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            manifests(&path, out);
+        } else if path.file_name().is_some_and(|n| n == "manifest.json") {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn committed_results_come_from_one_clean_commit() {
+    let results = Path::new(env!("CARGO_MANIFEST_DIR")).join("../results");
+    let mut found = vec![];
+    manifests(&results, &mut found);
+    assert!(found.len() >= 20, "only {} manifests", found.len());
+    let mut commits: Vec<(String, PathBuf)> = found
+        .into_iter()
+        .map(|p| {
+            let text = std::fs::read_to_string(&p).unwrap();
+            let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+            let commit = json["commit"].as_str().unwrap_or("none").to_string();
+            (commit, p)
+        })
+        .collect();
+    for (c, p) in &commits {
+        assert!(
+            c.len() == 40 && c.chars().all(|ch| ch.is_ascii_hexdigit()),
+            "{} was written by {c}: not a clean commit",
+            p.display()
+        );
+    }
+    commits.sort();
+    let (first, last) = (&commits[0], &commits[commits.len() - 1]);
+    assert_eq!(
+        first.0,
+        last.0,
+        "results come from several commits, e.g. {} ({}) and {} ({}): regenerate with `smokelab experiment all`",
+        first.1.display(),
+        first.0,
+        last.1.display(),
+        last.0
+    );
+}
