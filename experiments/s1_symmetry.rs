@@ -42,10 +42,10 @@
 //! `data.csv`): the notes' claim does not hold. With the sources ¼ cell off
 //! the lattice mirror — the symmetry broken at the same level for every
 //! mode — gridless ends *less* symmetric than gridded: largest mirror error
-//! ×1.9 (SL) and ×1.0 (QUICK), L2 mirror error ×1.8 and ×1.6, centre-of-mass
-//! drift ×3.7 and ×2.1; SELMA is within ×0.8–1.6 of gridded. Gridless is
+//! ×2.1 (SL) and ×3.6 (QUICK), L2 mirror error ×1.4 and ×3.9, centre-of-mass
+//! drift ×1.3 and ×19; SELMA ×0.9 and ×3.4 in mirror error. Gridless is
 //! the more symmetric only for the first few steps, while its exact source
-//! beats gridded's sampled one (0 against 0.50 at step 1). Where the
+//! beats gridded's cell-averaged one (0 against 0.125 at step 1). Where the
 //! lattice keeps the symmetry, gridded and SELMA stay at round-off
 //! (≤ 4e-5; one exception, QUICK gridded with the mirror on a face plane,
 //! grows to 7e-2 after step 27) while gridless is either exact (0) or flips
