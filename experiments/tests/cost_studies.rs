@@ -7,30 +7,14 @@
 //! One test in this binary: the measurements are process-wide, so nothing
 //! else may run beside them.
 
+mod common;
+use common::{num, table};
+
 use std::collections::HashMap;
 use std::path::Path;
 
 use smokelab_app::growth::{classify, Criteria, Growth, Trend};
 use smokelab_app::registry::{find, Context, Size};
-
-/// `data.csv` as rows of column → value.
-fn table(path: &Path) -> Vec<HashMap<String, String>> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let cols: Vec<&str> = lines.next().unwrap().split(',').collect();
-    lines
-        .map(|l| {
-            cols.iter()
-                .zip(l.split(','))
-                .map(|(c, v)| (c.to_string(), v.to_string()))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(row: &HashMap<String, String>, col: &str) -> f64 {
-    row[col].parse().unwrap()
-}
 
 /// `(frames, column)` of one series, by frames.
 fn series(t: &[HashMap<String, String>], name: &str, col: &str) -> Vec<(f64, f64)> {

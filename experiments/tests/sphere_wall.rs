@@ -3,7 +3,9 @@
 //! rows in order and every `data.csv` holds what its experiment says (the
 //! cost studies 07-10 and 08-2: `cost_studies.rs`).
 
-use std::collections::HashMap;
+mod common;
+use common::{num, table};
+
 use std::path::{Path, PathBuf};
 
 use smokelab_app::registry::{find, Context, Size};
@@ -17,25 +19,6 @@ fn run(dir: &Path, id: &str) -> PathBuf {
     };
     (find(id).unwrap().run)(&ctx).unwrap_or_else(|e| panic!("{id}: {e:#}"));
     out
-}
-
-/// `data.csv` as rows of column → value.
-fn table(path: &Path) -> Vec<HashMap<String, String>> {
-    let text = std::fs::read_to_string(path).unwrap();
-    let mut lines = text.lines();
-    let cols: Vec<&str> = lines.next().unwrap().split(',').collect();
-    lines
-        .map(|l| {
-            cols.iter()
-                .zip(l.split(','))
-                .map(|(c, v)| (c.to_string(), v.to_string()))
-                .collect()
-        })
-        .collect()
-}
-
-fn num(row: &HashMap<String, String>, col: &str) -> f64 {
-    row[col].parse().unwrap()
 }
 
 /// Bytes of one velocity grid at smoke size (16³ × 3 floats).

@@ -23,3 +23,25 @@ pub fn small_hot_cold_run(cwd: &Path, out: &str, extra: &[&str]) {
     let o = smokelab(&args, cwd);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// A CSV file (plain numbers and names, no quoting) as rows of column → value.
+#[allow(dead_code)]
+pub fn table(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let cols: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines
+        .map(|l| {
+            cols.iter()
+                .zip(l.split(','))
+                .map(|(c, v)| (c.to_string(), v.to_string()))
+                .collect()
+        })
+        .collect()
+}
+
+/// The number in column `col` of a [`table`] row.
+#[allow(dead_code)]
+pub fn num(row: &std::collections::HashMap<String, String>, col: &str) -> f64 {
+    row[col].parse().unwrap()
+}
