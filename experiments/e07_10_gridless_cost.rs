@@ -33,7 +33,7 @@
 //! frame counted, 0.378 heap and 0.368–0.370 RSS (r² ≥ 0.9995): one 32³
 //! velocity grid per gridless frame, as the notes expect.
 //!
-//! Run: `smokelab experiment 07-10` (about 45 s on 2 cores: 32³, 30
+//! Run: `smokelab experiment 07-10` (about 20 s on 2 cores: 32³, 30
 //! frames, 7 values of `k`, 160×120; `--full` 50³, 60 frames, 640×480 —
 //! hours; `--smoke` 16³, 6 frames, 64×48).
 
@@ -53,7 +53,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-10",
     reproduces: "fig 7.10",
     title: "render time and memory vs gridless frames, march step cell and cell/10",
-    cost: "~45 s",
+    cost: "~20 s",
     run,
 };
 

@@ -32,7 +32,7 @@
 //! SELMA's RSS changes by +14 %; SELMA^fine's unadvected point is 3 MiB
 //! against 9–10 MiB for the advected ones, the advection's scratch.
 //!
-//! Run: `smokelab experiment 08-2` (about 2 min on 2 cores: 32³, 30
+//! Run: `smokelab experiment 08-2` (about 20 s on 2 cores: 32³, 30
 //! frames, 7 values of `n`, 160×120; `--full` 50³, 60 frames, 640×480 —
 //! hours; `--smoke` 16³, 6 frames, 64×48).
 
@@ -52,7 +52,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "08-2",
     reproduces: "fig 8.2",
     title: "render time and memory vs frames: gridless, SELMA, SELMA-fine",
-    cost: "~2 min",
+    cost: "~20 s",
     run,
 };
 

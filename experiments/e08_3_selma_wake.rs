@@ -33,7 +33,7 @@
 //! not resolve; the sticky rule at α = 0 gave the same picture with more
 //! of the cloud dragged out of view.
 //!
-//! Run: `smokelab experiment 08-3` (about 40 s on 2 cores: 80 × 32 × 32
+//! Run: `smokelab experiment 08-3` (about 30 s on 2 cores: 80 × 32 × 32
 //! velocity cells, 256² renders; `--full` 160 × 64 × 64 and 512²; `--smoke`
 //! 40 × 16 × 16 and 64²).
 //!
@@ -74,7 +74,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "08-3",
     reproduces: "fig 8.3",
     title: "SELMA applies a simulated sphere wake to a modelled cloud",
-    cost: "~40 s",
+    cost: "~30 s",
     run,
 };
 

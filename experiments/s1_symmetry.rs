@@ -52,7 +52,7 @@
 //! whole cells of its solid source (1.0 with the half-cell shift, SL).
 //!
 //! Run: `smokelab experiment S-1` (32³, 60 steps of Δt 0.1, 5 cases × 3
-//! densities × 2 schemes; about 2 minutes on 2 cores; `--full` 48³, 90
+//! densities × 2 schemes; about 70 s on 2 cores; `--full` 48³, 90
 //! steps; `--smoke` 12³, 6 steps).
 //!
 //! Writes `results/S-1/`: `data.csv` (case, mode, scheme, step, time,
@@ -90,7 +90,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "S-1",
     reproduces: "§7 claim, fig 6.5",
     title: "hot/cold symmetry broken on purpose: mirror error and drift per density mode",
-    cost: "~2 min",
+    cost: "~70 s",
     run,
 };
 
