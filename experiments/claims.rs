@@ -94,7 +94,7 @@ impl Csv {
 
     /// The text of `column` in the first row matching every `(key, value)`.
     fn cell(&self, keys: &[(&str, &str)], column: &str) -> Result<String> {
-        let keys = keys
+        let at = keys
             .iter()
             .map(|&(k, v)| Ok((self.index(k)?, v)))
             .collect::<Result<Vec<_>>>()?;
@@ -102,7 +102,7 @@ impl Csv {
         let row = self
             .rows
             .iter()
-            .find(|r| keys.iter().all(|&(k, v)| r[k] == v))
+            .find(|r| at.iter().all(|&(k, v)| r[k] == v))
             .ok_or_else(|| anyhow!("{} has no row with {keys:?}", self.path))?;
         Ok(row[c].clone())
     }

@@ -163,7 +163,10 @@ fn slab_box_keeps_its_gas_with_exact_obstacles() {
         "flux divergence {div:e} of max|u|/Δx"
     );
     assert!(it <= 30, "{it} CG iterations");
-    assert!((0.95..=1.06).contains(&r), "SL retained {r}");
+    // Issue 15 asks ≥ 95 %; semi-Lagrangian resampling gains a little
+    // (measured 1.015 against the one budget ∫S dV·t; 1.030 when the gridded
+    // source was point-sampled and its own budget).
+    assert!((0.95..=1.04).contains(&r), "SL retained {r}");
     let quick = slab_box(32, 200, Scheme::Quick, ObstacleMethod::Exact, Gridded).retained;
     println!("QUICK exact: retained {quick:.6}");
     assert!((quick - 1.0).abs() <= 1e-4, "QUICK retained {quick}");
