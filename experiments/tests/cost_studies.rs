@@ -8,13 +8,12 @@
 //! else may run beside them.
 
 mod common;
-use common::{num, table};
+use common::{num, smoke_experiment, table};
 
 use std::collections::HashMap;
 use std::path::Path;
 
 use smokelab_app::growth::{classify, Criteria, Growth, Trend};
-use smokelab_app::registry::{find, Context, Size};
 
 /// `(frames, column)` of one series, by frames.
 fn series(t: &[HashMap<String, String>], name: &str, col: &str) -> Vec<(f64, f64)> {
@@ -52,13 +51,7 @@ fn late_over_early(points: &[(f64, f64)]) -> f64 {
 }
 
 fn run(dir: &Path, id: &str) -> Vec<HashMap<String, String>> {
-    let out = dir.join(id);
-    let ctx = Context {
-        out: out.clone(),
-        size: Size::Smoke,
-        progress: false,
-    };
-    (find(id).unwrap().run)(&ctx).unwrap_or_else(|e| panic!("{id}: {e:#}"));
+    let out = smoke_experiment(dir, id);
     for f in [
         "time.png",
         "memory.png",

@@ -1,25 +1,15 @@
-//! The modelling experiments (ch. 3–5) at smoke size: their tables say what
+//! The modelling experiments (ch. 3–5, and 08-3) at smoke size: their tables say what
 //! their headers promise.
 
-use smokelab_app::registry::{find, Context, Size};
-
-fn run(id: &str, dir: &std::path::Path) -> std::path::PathBuf {
-    let out = dir.join(id);
-    let ctx = Context {
-        out: out.clone(),
-        size: Size::Smoke,
-        progress: false,
-    };
-    (find(id).unwrap().run)(&ctx).unwrap();
-    out
-}
+mod common;
+use common::smoke_experiment;
 
 /// 05-1: `labels.npy` is int32 `(nz, ny, nx)`, one `pieces.csv` row per
 /// label with its cell count, and the set counts add up to 2⁵.
 #[test]
 fn cut_sphere_writes_labels_and_pieces() {
     let dir = tempfile::tempdir().unwrap();
-    let out = run("05-1", dir.path());
+    let out = smoke_experiment(dir.path(), "05-1");
     let labels: ndarray::Array3<i32> = ndarray_npy::read_npy(out.join("labels.npy")).unwrap();
     assert_eq!(labels.dim(), (24, 24, 24));
     let mut rows = csv::Reader::from_path(out.join("pieces.csv")).unwrap();
@@ -48,7 +38,7 @@ fn cut_sphere_writes_labels_and_pieces() {
 #[test]
 fn nacelle_residual_falls_within_three_iterations() {
     let dir = tempfile::tempdir().unwrap();
-    let out = run("04-1", dir.path());
+    let out = smoke_experiment(dir.path(), "04-1");
     let mut data = csv::Reader::from_path(out.join("data.csv")).unwrap();
     let worst: Vec<(usize, String, f64)> = data
         .records()
@@ -82,7 +72,7 @@ fn nacelle_residual_falls_within_three_iterations() {
 #[test]
 fn selma_wake_disturbs_the_cloud_along_the_flight_path_only() {
     let dir = tempfile::tempdir().unwrap();
-    let out = run("08-3", dir.path());
+    let out = smoke_experiment(dir.path(), "08-3");
     let mut data = csv::Reader::from_path(out.join("data.csv")).unwrap();
     let rows: Vec<(String, f64, f64, f64)> = data
         .records()

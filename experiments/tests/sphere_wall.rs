@@ -4,22 +4,9 @@
 //! cost studies 07-10 and 08-2: `cost_studies.rs`).
 
 mod common;
-use common::{num, table};
+use common::{num, smoke_experiment as run, table};
 
-use std::path::{Path, PathBuf};
-
-use smokelab_app::registry::{find, Context, Size};
-
-fn run(dir: &Path, id: &str) -> PathBuf {
-    let out = dir.join(id);
-    let ctx = Context {
-        out: out.clone(),
-        size: Size::Smoke,
-        progress: false,
-    };
-    (find(id).unwrap().run)(&ctx).unwrap_or_else(|e| panic!("{id}: {e:#}"));
-    out
-}
+use std::path::Path;
 
 /// Bytes of one velocity grid at smoke size (16³ × 3 floats).
 const VELOCITY_GRID: f64 = 16.0 * 16.0 * 16.0 * 12.0;

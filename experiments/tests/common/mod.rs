@@ -45,3 +45,17 @@ pub fn table(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
 pub fn num(row: &std::collections::HashMap<String, String>, col: &str) -> f64 {
     row[col].parse().unwrap()
 }
+
+/// Run experiment `id` at smoke size, quietly, into `dir/id`; its folder.
+#[allow(dead_code)]
+pub fn smoke_experiment(dir: &Path, id: &str) -> std::path::PathBuf {
+    use smokelab_app::registry::{find, Context, Size};
+    let out = dir.join(id);
+    let ctx = Context {
+        out: out.clone(),
+        size: Size::Smoke,
+        progress: false,
+    };
+    (find(id).unwrap().run)(&ctx).unwrap_or_else(|e| panic!("{id}: {e:#}"));
+    out
+}
