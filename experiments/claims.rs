@@ -133,15 +133,12 @@ impl Csv {
 }
 
 /// Hot-gas measures per density mode from 06-3's summary.
-fn modes(results: &Path) -> Result<(Csv, [&'static str; 3])> {
-    Ok((
-        Csv::read(results, "06-3/summary.csv")?,
-        ["gridded", "gridless", "selma"],
-    ))
+fn modes(results: &Path) -> Result<Csv> {
+    Csv::read(results, "06-3/summary.csv")
 }
 
 fn finer_structure(results: &Path) -> Result<Finding> {
-    let (t, _) = modes(results)?;
+    let t = modes(results)?;
     let grad = t.get("mode", "gridless", "hot_grad")? / t.get("mode", "gridded", "hot_grad")?;
     let sub =
         t.get("mode", "gridless", "hot_subgrid")? / t.get("mode", "gridded", "hot_subgrid")?;
@@ -152,11 +149,11 @@ fn finer_structure(results: &Path) -> Result<Finding> {
 }
 
 fn selma_between(results: &Path) -> Result<Finding> {
-    let (t, [gridded, gridless, selma]) = modes(results)?;
+    let t = modes(results)?;
     let mut parts = vec![];
     let mut text = vec![];
     for (column, name) in [("hot_grad", "mean |∇ρ|"), ("hot_subgrid", "sub-grid share")] {
-        let [a, b, c] = [gridded, selma, gridless].map(|m| t.get("mode", m, column));
+        let [a, b, c] = ["gridded", "selma", "gridless"].map(|m| t.get("mode", m, column));
         let (a, b, c) = (a?, b?, c?);
         parts.push(a < b && b < c);
         text.push(format!("{name} {a:.3} < {b:.3} < {c:.3}"));
@@ -168,7 +165,7 @@ fn selma_between(results: &Path) -> Result<Finding> {
 }
 
 fn keeps_peak(results: &Path) -> Result<Finding> {
-    let (t, _) = modes(results)?;
+    let t = modes(results)?;
     let (less, grid) = (
         t.get("mode", "gridless", "hot_max")?,
         t.get("mode", "gridded", "hot_max")?,
@@ -180,7 +177,7 @@ fn keeps_peak(results: &Path) -> Result<Finding> {
 }
 
 fn keeps_mass(results: &Path) -> Result<Finding> {
-    let (t, _) = modes(results)?;
+    let t = modes(results)?;
     let kept = |m| -> Result<f64> {
         Ok(t.get("mode", m, "hot_mass_4x")? / t.get("mode", m, "hot_injected")?)
     };
@@ -286,13 +283,13 @@ fn noise_costs(results: &Path) -> Result<Finding> {
 fn obstacles_hold(results: &Path) -> Result<Finding> {
     let t = Csv::read(results, "06-6/data.csv")?;
     let notes = t.get("case", "sl-gridded-reflect-notes", "max_obstacle_fraction")?;
+    let (case, column) = (t.index("case")?, t.index("max_obstacle_fraction")?);
     let exact = t
-        .numbers("max_obstacle_fraction")?
+        .rows
         .iter()
-        .zip(&t.rows)
-        .filter(|(_, r)| !r[0].ends_with("-notes"))
-        .map(|(v, _)| *v)
-        .fold(0.0, f64::max);
+        .filter(|r| !r[case].ends_with("-notes"))
+        .map(|r| r[column].parse::<f64>())
+        .try_fold(0.0_f64, |m, v| v.map(|v| m.max(v)))?;
     Ok(Finding {
         number: format!(
             "gas inside obstacles: notes' rule {:.1e}, exact projection {exact:.1e}",
