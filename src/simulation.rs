@@ -389,19 +389,19 @@ impl Simulation {
         let p = self.params;
         let d = *self.domain();
         let [nx, ny, _] = d.dims;
-        let cell = |c: [usize; 3]| (c[2] * ny + c[1]) * nx + c[0];
         let gases = &self.gases;
         self.lift
             .as_slice_mut()
-            .par_chunks_mut(4096)
+            .par_chunks_mut(nx * ny)
             .enumerate()
-            .for_each(|(c, out)| {
-                for (m, b) in out.iter_mut().enumerate() {
-                    let n = c * 4096 + m;
-                    *b = gases
-                        .iter()
-                        .map(|g| g.lift * g.density().as_slice()[n])
-                        .sum();
+            .for_each(|(k, out)| {
+                // Σ lift·ρ folded from −0.0 in gas order, as `Iterator::sum`.
+                out.fill(-0.0);
+                for g in gases {
+                    let rho = &g.density().as_slice()[k * nx * ny..(k + 1) * nx * ny];
+                    for (b, r) in out.iter_mut().zip(rho) {
+                        *b += g.lift * r;
+                    }
                 }
             });
         let lift = self.lift.as_slice();
@@ -411,21 +411,34 @@ impl Simulation {
                 continue;
             }
             let (dims, n) = (self.velocity.face_dims(a), d.dims[a]);
+            // Linear index of cell (0, j, k).
+            let row = |j: usize, k: usize| (k * ny + j) * nx;
             self.velocity
                 .slice_mut(a)
                 .par_chunks_mut(dims[0] * dims[1])
                 .enumerate()
                 .for_each(|(k, slab)| {
-                    for j in 0..dims[1] {
-                        for i in 0..dims[0] {
-                            // The cells below and above face (i, j, k),
-                            // wrapped (periodic); a closed box's wall faces
-                            // read a clamped cell and are zeroed below.
-                            let (mut below, mut above) = ([i, j, k], [i, j, k]);
-                            below[a] = if below[a] == 0 { n - 1 } else { below[a] - 1 };
-                            above[a] = above[a].min(n - 1);
-                            slab[j * dims[0] + i] -=
-                                ga * 0.5 * (lift[cell(below)] + lift[cell(above)]);
+                    for (j, out) in slab.chunks_exact_mut(dims[0]).enumerate() {
+                        // The cells below and above the faces of row (j, k)
+                        // along a, wrapped (periodic); a closed box's wall
+                        // faces read a clamped cell and are zeroed below.
+                        let (mut below, mut above) = ([j, k], [j, k]);
+                        if a > 0 {
+                            let (b, c) = (&mut below[a - 1], &mut above[a - 1]);
+                            *b = if *b == 0 { n - 1 } else { *b - 1 };
+                            *c = (*c).min(n - 1);
+                        }
+                        let (lo, hi) = (row(below[0], below[1]), row(above[0], above[1]));
+                        let (lo, hi) = (&lift[lo..lo + nx], &lift[hi..hi + nx]);
+                        if a > 0 {
+                            for ((u, b), c) in out.iter_mut().zip(lo).zip(hi) {
+                                *u -= ga * 0.5 * (b + c);
+                            }
+                        } else {
+                            for (i, u) in out.iter_mut().enumerate() {
+                                let b = lo[if i == 0 { n - 1 } else { i - 1 }];
+                                *u -= ga * 0.5 * (b + hi[i.min(n - 1)]);
+                            }
                         }
                     }
                 });

@@ -1,14 +1,16 @@
-//! AVX2 kernel of the semi-Lagrangian face sweep
-//! ([`super::semi_lagrangian::advect_faces`], eq 6.5): eight consecutive
-//! faces of one x-row traced back together (Euler or RK2) and interpolated
-//! at their departure points, the trilinear corners fetched by gathers.
+//! AVX2 kernels of the semi-Lagrangian sweeps (eqs 6.4–6.5): eight
+//! consecutive faces of one x-row ([`super::semi_lagrangian::advect_faces`],
+//! [`faces8`]) or eight cell centres ([`super::semi_lagrangian::advect_fused`],
+//! [`cells8`]) traced back together (Euler or RK2), and interpolated at their
+//! departure points ([`faces8`], [`sample8`]), the trilinear corners fetched
+//! by gathers.
 //!
 //! Every lane does the scalar sweep's floating-point operations in the same
 //! order (products and sums, no fused multiply-add), so its results are the
-//! scalar path's to the bit. It covers faces at least one face from every
-//! edge of the box whose whole stencils lie inside the lattices; a group of
-//! eight with any lane outside returns `None` and the caller does those
-//! faces one by one through the wrapping scalar path.
+//! scalar path's to the bit. The callers keep the traced points away from
+//! the box's edges; a group of eight with any stencil outside its lattice
+//! returns `None`/`false` and the caller does those points one by one
+//! through the wrapping scalar path.
 
 use std::arch::x86_64::*;
 
@@ -108,6 +110,42 @@ fn load8(data: &[f32], at: usize) -> __m256 {
     unsafe { _mm256_loadu_ps(s.as_ptr()) }
 }
 
+/// The departure points of eight points `c` (grid coordinates) whose
+/// velocities are `u0`, traced back through `vel` over `dt_cells = Δt/Δx`
+/// (Euler or RK2) as the scalar `departure` does, or `None` if an RK2
+/// midpoint's stencil would wrap or clamp.
+///
+/// # Safety
+/// The CPU has AVX2 and `vel.dims` passes [`fits`].
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn trace8(
+    vel: Lattices,
+    c: [__m256; 3],
+    u0: [__m256; 3],
+    dt_cells: f32,
+    backtrace: Backtrace,
+) -> Option<[__m256; 3]> {
+    let step = |u: [__m256; 3], s: f32| -> [__m256; 3] {
+        std::array::from_fn(|a| _mm256_sub_ps(c[a], _mm256_mul_ps(_mm256_set1_ps(s), u[a])))
+    };
+    match backtrace {
+        Backtrace::Euler => Some(step(u0, dt_cells)),
+        Backtrace::Rk2 => {
+            let mid = step(u0, 0.5 * dt_cells);
+            let mut u1 = [_mm256_setzero_ps(); 3];
+            for (b, u) in u1.iter_mut().enumerate() {
+                let mut p = mid;
+                p[b] = _mm256_add_ps(p[b], _mm256_set1_ps(0.5));
+                // SAFETY: the lattice of b has vel.data[b]'s length (fits).
+                *u = unsafe { trilinear8(vel.data[b], vel.dims[b], p) }?;
+            }
+            Some(step(u1, dt_cells))
+        }
+        Backtrace::Rk3 => None,
+    }
+}
+
 /// Faces `(i, j, k) … (i + 7, j, k)` of component `A`: `data` (laid out
 /// like component `A`'s lattice) at each face's departure point through
 /// `vel` over `dt_cells = Δt/Δx`, or `None` (nothing written) if a stencil
@@ -150,30 +188,103 @@ pub(super) unsafe fn faces8<const A: usize>(
         }
         _mm256_mul_ps(_mm256_set1_ps(0.25), sum)
     });
-    let step = |u: [__m256; 3], s: f32| -> [__m256; 3] {
-        std::array::from_fn(|a| _mm256_sub_ps(c[a], _mm256_mul_ps(_mm256_set1_ps(s), u[a])))
-    };
-    let g = match backtrace {
-        Backtrace::Euler => step(u0, dt_cells),
-        Backtrace::Rk2 => {
-            let mid = step(u0, 0.5 * dt_cells);
-            let mut u1 = [_mm256_setzero_ps(); 3];
-            for (b, u) in u1.iter_mut().enumerate() {
-                let mut p = mid;
-                p[b] = _mm256_add_ps(p[b], _mm256_set1_ps(0.5));
-                // SAFETY: the lattice of b has vel.data[b]'s length (fits).
-                *u = unsafe { trilinear8(vel.data[b], vel.dims[b], p) }?;
-            }
-            step(u1, dt_cells)
-        }
-        Backtrace::Rk3 => return None,
-    };
+    // SAFETY: as this function's.
+    let g = unsafe { trace8(vel, c, u0, dt_cells, backtrace) }?;
     let mut p = g;
     p[A] = _mm256_add_ps(p[A], _mm256_set1_ps(0.5));
     // SAFETY: `data` has component A's lattice length (caller).
     let v = unsafe { trilinear8(data, vel.dims[A], p) }?;
     let mut out = [0.0; 8];
-    // SAFETY: `out` holds eight f32.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), v) };
+    store8(&mut out, v);
     Some(out)
+}
+
+/// The departure points of cell centres `(i, j, k) … (i + 7, j, k)` traced
+/// back through `vel` over `dt_cells = Δt/Δx` (Euler or RK2), written to
+/// `out = [x, y, z]` (eight lanes each); `false` (nothing written) if an RK2
+/// midpoint's stencil would wrap or clamp. The cell velocity is the mean of
+/// the cell's two faces per component, `FaceSampler::at_cell`'s sum in the
+/// same order, and the trace is the scalar `departure`'s.
+///
+/// The caller keeps every cell's upper face inside its lattice (`i + 8 <
+/// mx` of `u`, `j + 1 < my` of `v`, `k + 1 < mz` of `w`), so no face wraps.
+///
+/// # Safety
+/// The CPU has AVX2 ([`available`]) and `vel.dims` passes [`fits`].
+///
+/// # Panics
+/// If an `out` slice is shorter than eight.
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn cells8(
+    vel: Lattices,
+    f: [usize; 3],
+    dt_cells: f32,
+    backtrace: Backtrace,
+    out: [&mut [f32]; 3],
+) -> bool {
+    let lane = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
+    let c = [
+        _mm256_add_ps(_mm256_set1_ps(f[0] as f32), lane),
+        _mm256_set1_ps(f[1] as f32),
+        _mm256_set1_ps(f[2] as f32),
+    ];
+    let u0: [__m256; 3] = std::array::from_fn(|a| {
+        let d = vel.dims[a];
+        let here = (f[2] * d[1] + f[1]) * d[0] + f[0];
+        let up = here + [1, d[0], d[0] * d[1]][a];
+        let sum = _mm256_add_ps(load8(vel.data[a], here), load8(vel.data[a], up));
+        _mm256_mul_ps(_mm256_set1_ps(0.5), sum)
+    });
+    // SAFETY: as this function's.
+    let Some(g) = (unsafe { trace8(vel, c, u0, dt_cells, backtrace) }) else {
+        return false;
+    };
+    for (o, v) in out.into_iter().zip(g) {
+        store8(o, v);
+    }
+    true
+}
+
+/// `data` (a cell-centred grid of `dims` cells) interpolated at the eight
+/// grid-coordinate points `g = [x, y, z]` (eight lanes each), into `out`;
+/// `false` (nothing written) if a stencil would wrap or clamp.
+///
+/// # Safety
+/// The CPU has AVX2; `dims` passes [`fits`] as a lattice.
+///
+/// # Panics
+/// If `data` is shorter than `dims`, or a slice of `g` or `out` shorter
+/// than eight.
+#[target_feature(enable = "avx2")]
+pub(super) unsafe fn sample8(
+    data: &[f32],
+    dims: [usize; 3],
+    g: [&[f32]; 3],
+    out: &mut [f32],
+) -> bool {
+    assert!(
+        data.len() >= dims.iter().product::<usize>(),
+        "sample8: data"
+    );
+    let g = g.map(|x| load8(x, 0));
+    // SAFETY: data covers the lattice (asserted), which fits (caller).
+    match unsafe { trilinear8(data, dims, g) } {
+        Some(v) => {
+            store8(out, v);
+            true
+        }
+        None => false,
+    }
+}
+
+/// Store eight lanes at the start of `out`.
+///
+/// # Panics
+/// If `out` is shorter than eight.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn store8(out: &mut [f32], v: __m256) {
+    let s = &mut out[..8];
+    // SAFETY: `s` holds eight f32.
+    unsafe { _mm256_storeu_ps(s.as_mut_ptr(), v) };
 }

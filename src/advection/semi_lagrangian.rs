@@ -313,37 +313,85 @@ pub fn advect_fused(
             s.push(chunk);
         }
     }
-    // One row at a time: trace the row's departure points and build their
-    // stencils once, then sweep each density through them (tight loops,
-    // stencils hot in L1); a density with another wrap builds its own.
-    let wrap = src[0].1;
+    // One row at a time: trace the row's departure points into `points`
+    // (x, y, z lanes), eight cells at once where the AVX2 kernel applies,
+    // then sweep each density through them, eight at once where their
+    // stencils lie inside the grid. Scalar paths do the same operations.
+    #[cfg(target_arch = "x86_64")]
+    let simd = simd_lattices(sampler);
+    let cells = d.dims;
+    let scalar_point = |c: [usize; 3]| {
+        let g = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32);
+        departure(sampler, g, sampler.at_cell(c), dt_cells, backtrace)
+    };
     slabs.into_par_iter().enumerate().for_each_init(
-        || (Vec::with_capacity(nx), Vec::with_capacity(nx)),
-        |(points, stencils), (k, mut outs)| {
+        || [vec![0.0f32; nx], vec![0.0f32; nx], vec![0.0f32; nx]],
+        |points, (k, mut outs)| {
             for j in 0..ny {
                 let row = j * nx..(j + 1) * nx;
-                points.clear();
-                stencils.clear();
-                for i in 0..nx {
-                    let c = Vec3::new(i as f32, j as f32, k as f32);
-                    let u0 = sampler.at_cell([i, j, k]);
-                    let g = departure(sampler, c, u0, dt_cells, backtrace);
-                    points.push(g);
-                    stencils.push(Stencil::new(g, d.dims, wrap));
+                let mut done = 0;
+                #[cfg(target_arch = "x86_64")]
+                if let Some(lat) = simd.filter(|l| j + 1 < l.dims[1][1] && k + 1 < l.dims[2][2]) {
+                    while done + 8 < lat.dims[0][0] && done + 8 <= nx {
+                        let [px, py, pz] = &mut *points;
+                        let lanes = [&mut px[done..], &mut py[done..], &mut pz[done..]];
+                        // SAFETY: AVX2 and lattice sizes checked by
+                        // simd_lattices; the cells' upper faces are inside
+                        // (done + 8 < m_x of u, j + 1 < m_y of v, k + 1 <
+                        // m_z of w), and every lane slice holds eight.
+                        let traced = unsafe {
+                            face_simd::cells8(lat, [done, j, k], dt_cells, backtrace, lanes)
+                        };
+                        if !traced {
+                            for i in done..done + 8 {
+                                set_point(points, i, scalar_point([i, j, k]));
+                            }
+                        }
+                        done += 8;
+                    }
                 }
-                for ((data, w), out) in src.iter().zip(outs.iter_mut()) {
+                for i in done..nx {
+                    set_point(points, i, scalar_point([i, j, k]));
+                }
+                for ((data, wrap), out) in src.iter().zip(outs.iter_mut()) {
                     let out = &mut out[row.clone()];
-                    if *w == wrap {
-                        for (o, st) in out.iter_mut().zip(stencils.iter()) {
-                            *o = st.apply(data);
+                    let mut done = 0;
+                    #[cfg(target_arch = "x86_64")]
+                    if simd.is_some() {
+                        while done + 8 <= nx {
+                            let [px, py, pz] = &*points;
+                            let g = [&px[done..], &py[done..], &pz[done..]];
+                            // SAFETY: AVX2 checked by simd_lattices; the
+                            // cell grid is smaller than w's lattice, which fits.
+                            let sampled =
+                                unsafe { face_simd::sample8(data, cells, g, &mut out[done..]) };
+                            if !sampled {
+                                for (i, o) in out.iter_mut().enumerate().skip(done).take(8) {
+                                    *o = Stencil::new(point(points, i), cells, *wrap).apply(data);
+                                }
+                            }
+                            done += 8;
                         }
-                    } else {
-                        for (o, &g) in out.iter_mut().zip(points.iter()) {
-                            *o = Stencil::new(g, d.dims, *w).apply(data);
-                        }
+                    }
+                    for (i, o) in out.iter_mut().enumerate().skip(done) {
+                        *o = Stencil::new(point(points, i), cells, *wrap).apply(data);
                     }
                 }
             }
         },
     );
+}
+
+/// Point `i` of a row's departure points held as `[x, y, z]` lanes.
+#[inline(always)]
+fn point(points: &[Vec<f32>; 3], i: usize) -> Vec3 {
+    Vec3::new(points[0][i], points[1][i], points[2][i])
+}
+
+/// Store `g` as point `i` of a row's departure points.
+#[inline(always)]
+fn set_point(points: &mut [Vec<f32>; 3], i: usize, g: Vec3) {
+    for (lane, v) in points.iter_mut().zip(g.to_array()) {
+        lane[i] = v;
+    }
 }

@@ -152,9 +152,15 @@ pub fn cell_averages(f: &dyn ScalarField, domain: &Domain, refine: usize) -> Sca
                     fine.slab_centers(kf, points);
                     values.resize(points.len(), 0.0);
                     f.eval_batch(points, values);
-                    for (n, &v) in values.iter().enumerate() {
-                        let (i, j) = (n % fine.dims[0], n / fine.dims[0]);
-                        sums[(j / refine) * nx + i / refine] += v as f64;
+                    // Each fine row adds `refine` samples in a row to each
+                    // of its coarse cells, in the samples' order.
+                    for (jf, row) in values.chunks_exact(fine.dims[0]).enumerate() {
+                        let cells = &mut sums[(jf / refine) * nx..][..nx];
+                        for (s, sub) in cells.iter_mut().zip(row.chunks_exact(refine)) {
+                            for &v in sub {
+                                *s += v as f64;
+                            }
+                        }
                     }
                 }
                 for (o, s) in out.iter_mut().zip(sums.iter()) {
