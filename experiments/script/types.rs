@@ -21,6 +21,11 @@
 //! exclusive or, looser than `+ −`: `a + b^0.5` is `(a + b)^0.5`. Scripts
 //! write `**`, Rhai's power operator, which binds tighter than `*`.
 //!
+//! A velocity cache meets a vectorfield as the notes write it: `velocity +
+//! v` and `velocity − v` sample `v` at the face centres (component `a` at
+//! the `a`-faces), `velocity * n` is the dot product of the cache's point
+//! query with `n`.
+//!
 //! Caches are immutable values shared by [`Arc`]: an operation makes a new
 //! grid (one allocation per grid per step, none per cell), so a script's
 //! `hot = …` rebinding never aliases another variable's grid.
@@ -271,6 +276,12 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("*", |a: VectorF, b: ScalarF| {
         VectorF(fa::scalar_times_vector(b.field, a.0))
     });
+    engine.register_fn("/", |a: VectorF, s: ScalarF| {
+        VectorF(fa::scalar_times_vector(
+            fa::div(ops::constant(1.0), s.field),
+            a.0,
+        ))
+    });
     engine.register_fn("*", |a: VectorF, m: MatrixF| {
         VectorF(Arc::new(RowTimes(a.0, m.0)))
     });
@@ -309,6 +320,14 @@ pub fn register(engine: &mut Engine) {
     engine.register_fn("+", |a: VectorCache, v: VectorF| {
         let b = FaceGrid::from_field(*a.0.domain(), a.0.kind(), &*v.0);
         zip_faces(&a.0, &b, |x, y| x + y)
+    });
+    engine.register_fn("-", |a: VectorCache, v: VectorF| {
+        let b = FaceGrid::from_field(*a.0.domain(), a.0.kind(), &*v.0);
+        zip_faces(&a.0, &b, |x, y| x - y)
+    });
+    engine.register_fn("*", |a: VectorCache, v: VectorF| {
+        let u: Vector = a.0;
+        ScalarF::new(fa::dot(u, v.0))
     });
 
     macro_rules! numbers {
