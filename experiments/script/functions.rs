@@ -13,7 +13,7 @@
 //! | `abs`, `sqrt`, `clamp`, `min`, `max`, `normalize` | [`fa`]'s pointwise operations |
 //! | `advect(f, u, dt)` — fields | [`ops::advect`], [`ops::advect_vector`] (Euler backtrace) |
 //! | `advect(f, velocity, dt)` — `velocity` a cache | `f ∘` the library's departure map ([`departure_point`]), the gridless density of §6.2 |
-//! | `advect(cache, velocity, dt)` | [`advect_scalar`]: the semi-Lagrangian sweep of `Simulation::advect` |
+//! | `advect(cache, velocity, dt)` | [`Departures::trace`] + [`interpolate_scalar`]: the semi-Lagrangian sweep of `Simulation::advect`, departures shared by the caches of one step |
 //! | `advect(velocity, velocity, dt)` | [`advect_faces`]: the velocity's own step in `Simulation::advect` |
 //! | `fftdivfree(velocity, region)` | [`PressureSolver::project`], `Simulation::project` (eq 6.3) |
 //! | `scalarcache(region, name)`, `vectorcache(region)` | empty grids ([`ScalarGrid::zeros`], [`FaceGrid::zeros`]) |
@@ -26,11 +26,14 @@
 //! | `cutinside(ℓ, knife)`, `cutoutside(ℓ, knife)` | [`cut::cut_inside`], [`cut::cut_outside`] (§5.2) |
 //! | `nacelle(reference, object, h, iterations)` | [`warp::Nacelle::iterate`] (eqs 4.7–4.10), the last map |
 
-use std::sync::Arc;
+use std::cell::RefCell;
+use std::sync::{Arc, Weak};
 
 use glam::Vec3;
 use rhai::{Array, Engine, FLOAT, INT};
-use smokelab::advection::{advect_faces, advect_scalar, departure_point, Backtrace};
+use smokelab::advection::{
+    advect_faces, departure_point, interpolate_scalar, Backtrace, Departures,
+};
 use smokelab::domain::Domain;
 use smokelab::field::algebra as fa;
 use smokelab::field::{ops, Scalar, Vector, VectorField};
@@ -67,6 +70,37 @@ fn departure(velocity: &VectorCache, dt: f32) -> Vector {
         dt_cells: dt / velocity.0.domain().cell,
         velocity: velocity.0.clone(),
         backtrace: Backtrace::default(),
+    })
+}
+
+/// The last departure points of the cell centres: the velocity they were
+/// traced through (weakly: a changed or dropped grid does not match) and Δt.
+type Traced = Option<(Weak<FaceGrid>, f32, Departures)>;
+
+thread_local! {
+    /// The densities of one step share their departure points, as in
+    /// `Simulation::advect`'s fused sweep.
+    static TRACED: RefCell<Traced> = const { RefCell::new(None) };
+}
+
+/// `ρ(x_d)`: the cache interpolated at the departure points of the cell
+/// centres through `u` over `dt` — [`Departures::trace`] and
+/// [`interpolate_scalar`], the arithmetic of the library's sweep — tracing
+/// only when `u` or `dt` changed since the last call.
+fn advect_cache(c: &ScalarGrid, u: &Arc<FaceGrid>, dt: f32) -> ScalarGrid {
+    TRACED.with(|t| {
+        let mut t = t.borrow_mut();
+        let hit = matches!(&*t, Some((w, d, _)) if *d == dt
+            && w.upgrade().is_some_and(|v| Arc::ptr_eq(&v, u)));
+        if !hit {
+            let mut dep = Departures::new(*u.domain());
+            dep.trace(u, dt, Backtrace::default());
+            *t = Some((Arc::downgrade(u), dt, dep));
+        }
+        let (_, _, dep) = t.as_ref().expect("traced above");
+        let mut out = ScalarGrid::zeros(*c.domain()).with_wrap(c.wrap());
+        interpolate_scalar(c, dep, &mut out);
+        out
     })
 }
 
@@ -189,11 +223,9 @@ pub fn register(engine: &mut Engine) {
                 )
                 .into());
             }
-            let mut out = ScalarGrid::zeros(*c.grid.domain());
-            advect_scalar(&c.grid, &u.0, dt as f32, Backtrace::default(), &mut out);
             Ok(ScalarCache {
+                grid: Arc::new(advect_cache(&c.grid, &u.0, dt as f32)),
                 name: c.name,
-                grid: Arc::new(out),
             })
         },
     );

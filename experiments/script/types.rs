@@ -35,6 +35,7 @@ use std::rc::Rc;
 use std::sync::Arc;
 
 use glam::Vec3;
+use rayon::prelude::*;
 use rhai::{Engine, EvalAltResult, FLOAT, INT};
 use smokelab::advection::Backtrace;
 use smokelab::density::probe::cell_averages;
@@ -142,8 +143,13 @@ impl VectorField for RowTimes {
     }
 }
 
-/// Elementwise `a op b` of two caches on one domain.
-fn zip_caches(a: &ScalarCache, b: &ScalarCache, op: fn(f32, f32) -> f32) -> Fallible<ScalarCache> {
+/// Elementwise `a op b` of two caches on one domain, in place when `a`'s
+/// grid is not shared (a temporary such as `advect(hot, …)`).
+fn zip_caches(
+    mut a: ScalarCache,
+    b: &ScalarCache,
+    op: fn(f32, f32) -> f32,
+) -> Fallible<ScalarCache> {
     if a.grid.domain() != b.grid.domain() {
         return Err(format!(
             "scalarcache `{}` and `{}` are on different domains",
@@ -151,38 +157,36 @@ fn zip_caches(a: &ScalarCache, b: &ScalarCache, op: fn(f32, f32) -> f32) -> Fall
         )
         .into());
     }
-    let mut out = (*a.grid).clone();
-    for (o, &v) in out.as_slice_mut().iter_mut().zip(b.grid.as_slice()) {
-        *o = op(*o, v);
-    }
-    Ok(ScalarCache {
-        name: a.name.clone(),
-        grid: Arc::new(out),
-    })
+    Arc::make_mut(&mut a.grid)
+        .as_slice_mut()
+        .par_iter_mut()
+        .zip(b.grid.as_slice().par_iter())
+        .for_each(|(o, &v)| *o = op(*o, v));
+    Ok(a)
 }
 
-/// `f(c)` for every sample of a cache.
-fn map_cache(a: &ScalarCache, f: impl Fn(f32) -> f32) -> ScalarCache {
-    let mut out = (*a.grid).clone();
-    out.as_slice_mut().iter_mut().for_each(|v| *v = f(*v));
-    ScalarCache {
-        name: a.name.clone(),
-        grid: Arc::new(out),
-    }
+/// `f(c)` for every sample of a cache (in place when not shared).
+fn map_cache(mut a: ScalarCache, f: impl Fn(f32) -> f32 + Sync) -> ScalarCache {
+    Arc::make_mut(&mut a.grid)
+        .as_slice_mut()
+        .par_iter_mut()
+        .for_each(|v| *v = f(*v));
+    a
 }
 
-/// Face by face `a op b` of two velocity caches.
-fn zip_faces(a: &FaceGrid, b: &FaceGrid, op: fn(f32, f32) -> f32) -> Fallible<VectorCache> {
-    if a.domain() != b.domain() || a.kind() != b.kind() {
+/// Face by face `a op b` of two velocity caches (in place when `a` is not shared).
+fn zip_faces(mut a: VectorCache, b: &FaceGrid, op: fn(f32, f32) -> f32) -> Fallible<VectorCache> {
+    if a.0.domain() != b.domain() || a.0.kind() != b.kind() {
         return Err("vectorcache operands are on different domains".into());
     }
-    let mut out = a.clone();
+    let out = Arc::make_mut(&mut a.0);
     for axis in 0..3 {
-        for (o, &v) in out.slice_mut(axis).iter_mut().zip(b.slice(axis)) {
-            *o = op(*o, v);
-        }
+        out.slice_mut(axis)
+            .par_iter_mut()
+            .zip(b.slice(axis).par_iter())
+            .for_each(|(o, &v)| *o = op(*o, v));
     }
-    Ok(VectorCache(Arc::new(out)))
+    Ok(a)
 }
 
 /// `k c` on the faces: component `a` of each face is `k_a` times the mean
@@ -201,33 +205,29 @@ pub fn force_on_faces(k: Vec3, c: &ScalarGrid) -> VectorCache {
             continue;
         }
         let (dims, n) = (out.face_dims(a), d.dims[a]);
-        let slice = out.slice_mut(a);
-        for kk in 0..dims[2] {
-            for j in 0..dims[1] {
-                for i in 0..dims[0] {
-                    let (mut below, above) = ([i, j, kk], [i, j, kk]);
-                    below[a] = if below[a] == 0 { n - 1 } else { below[a] - 1 };
-                    slice[(kk * dims[1] + j) * dims[0] + i] =
-                        k[a] * 0.5 * (data[cell(below)] + data[cell(above)]);
+        out.slice_mut(a)
+            .par_chunks_mut(dims[0] * dims[1])
+            .enumerate()
+            .for_each(|(kk, slab)| {
+                for j in 0..dims[1] {
+                    for i in 0..dims[0] {
+                        let (mut below, above) = ([i, j, kk], [i, j, kk]);
+                        below[a] = if below[a] == 0 { n - 1 } else { below[a] - 1 };
+                        slab[j * dims[0] + i] =
+                            k[a] * 0.5 * (data[cell(below)] + data[cell(above)]);
+                    }
                 }
-            }
-        }
+            });
     }
     VectorCache(Arc::new(out))
 }
 
 /// `velocity + s`: the injection of eq 6.4 when `s` is a field (its cell
 /// averages, the library's quadrature of the source, kept on the field).
-fn cache_plus_field(a: &ScalarCache, s: &ScalarF) -> Fallible<ScalarCache> {
-    let avg = s.cell_averages(a.grid.domain());
-    zip_caches(
-        a,
-        &ScalarCache {
-            name: a.name.clone(),
-            grid: avg,
-        },
-        |x, y| x + y,
-    )
+fn cache_plus_field(a: ScalarCache, s: &ScalarF) -> Fallible<ScalarCache> {
+    let grid = s.cell_averages(a.grid.domain());
+    let name = a.name.clone();
+    zip_caches(a, &ScalarCache { name, grid }, |x, y| x + y)
 }
 
 /// Register the types, their names in messages, and every operator.
@@ -300,30 +300,30 @@ pub fn register(engine: &mut Engine) {
 
     // caches
     engine.register_fn("+", |a: ScalarCache, b: ScalarCache| {
-        zip_caches(&a, &b, |x, y| x + y)
+        zip_caches(a, &b, |x, y| x + y)
     });
     engine.register_fn("-", |a: ScalarCache, b: ScalarCache| {
-        zip_caches(&a, &b, |x, y| x - y)
+        zip_caches(a, &b, |x, y| x - y)
     });
     engine.register_fn("*", |a: ScalarCache, b: ScalarCache| {
-        zip_caches(&a, &b, |x, y| x * y)
+        zip_caches(a, &b, |x, y| x * y)
     });
-    engine.register_fn("-", |a: ScalarCache| map_cache(&a, |x| -x));
-    engine.register_fn("+", |a: ScalarCache, s: ScalarF| cache_plus_field(&a, &s));
+    engine.register_fn("-", |a: ScalarCache| map_cache(a, |x| -x));
+    engine.register_fn("+", |a: ScalarCache, s: ScalarF| cache_plus_field(a, &s));
     engine.register_fn("*", |k: V3, c: ScalarCache| force_on_faces(k.0, &c.grid));
     engine.register_fn("+", |a: VectorCache, b: VectorCache| {
-        zip_faces(&a.0, &b.0, |x, y| x + y)
+        zip_faces(a, &b.0, |x, y| x + y)
     });
     engine.register_fn("-", |a: VectorCache, b: VectorCache| {
-        zip_faces(&a.0, &b.0, |x, y| x - y)
+        zip_faces(a, &b.0, |x, y| x - y)
     });
     engine.register_fn("+", |a: VectorCache, v: VectorF| {
         let b = FaceGrid::from_field(*a.0.domain(), a.0.kind(), &*v.0);
-        zip_faces(&a.0, &b, |x, y| x + y)
+        zip_faces(a, &b, |x, y| x + y)
     });
     engine.register_fn("-", |a: VectorCache, v: VectorF| {
         let b = FaceGrid::from_field(*a.0.domain(), a.0.kind(), &*v.0);
-        zip_faces(&a.0, &b, |x, y| x - y)
+        zip_faces(a, &b, |x, y| x - y)
     });
     engine.register_fn("*", |a: VectorCache, v: VectorF| {
         let u: Vector = a.0;
@@ -348,8 +348,8 @@ pub fn register(engine: &mut Engine) {
             engine.register_fn("*", |a: V3, b: $t| V3(a.0 * b as f32));
             engine.register_fn("*", |b: $t, a: V3| V3(a.0 * b as f32));
             engine.register_fn("/", |a: V3, b: $t| V3(a.0 / b as f32));
-            engine.register_fn("*", |a: ScalarCache, b: $t| map_cache(&a, |x| x * b as f32));
-            engine.register_fn("*", |b: $t, a: ScalarCache| map_cache(&a, |x| b as f32 * x));
+            engine.register_fn("*", |a: ScalarCache, b: $t| map_cache(a, |x| x * b as f32));
+            engine.register_fn("*", |b: $t, a: ScalarCache| map_cache(a, |x| b as f32 * x));
         )*};
     }
     numbers!(FLOAT, INT);
