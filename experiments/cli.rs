@@ -48,6 +48,8 @@ pub enum Command {
     Noise(crate::noise_command::NoiseArgs),
     /// Refresh `paper/paper.md` from `results/` and build it to HTML (pandoc).
     Paper,
+    /// Run a field script (`experiments/scripts/*.rhai`), the notes' FELT almost as printed.
+    Script(crate::script::ScriptArgs),
 }
 
 /// `smokelab run`.
@@ -358,6 +360,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Some(Command::Export(args)) => crate::export::run(&args),
         Some(Command::Noise(args)) => crate::noise_command::run(&args),
         Some(Command::Paper) => crate::paper::build(&crate::paper::repository_root()?),
+        Some(Command::Script(args)) => crate::script::run(&args),
     }
 }
 

@@ -16,6 +16,7 @@ pub mod paper;
 pub mod claims;
 pub mod progress;
 pub mod memory;
+pub mod script;
 
 // Figures and tables.
 pub mod plot;
