@@ -48,6 +48,8 @@ pub enum Command {
     Noise(crate::noise_command::NoiseArgs),
     /// Refresh `paper/paper.md` from `results/` and build it to HTML (pandoc).
     Paper,
+    /// Write `results/index.html`: every experiment's figures with captions and commands.
+    Gallery(crate::gallery::GalleryArgs),
 }
 
 /// `smokelab run`.
@@ -294,7 +296,7 @@ pub struct ExperimentArgs {
     /// Experiment id, e.g. `06-1` (see `--list`), or `all` to run every one in turn.
     pub id: Option<String>,
     /// List the experiments and what they reproduce.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["id", "out", "full", "smoke"])]
     pub list: bool,
     /// Output folder (default: `results/<id>/`; with `all`, the parent of
     /// one folder per experiment, default `results/`).
@@ -358,6 +360,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Some(Command::Export(args)) => crate::export::run(&args),
         Some(Command::Noise(args)) => crate::noise_command::run(&args),
         Some(Command::Paper) => crate::paper::build(&crate::paper::repository_root()?),
+        Some(Command::Gallery(args)) => crate::gallery::run(&args),
     }
 }
 
