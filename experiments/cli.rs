@@ -50,6 +50,8 @@ pub enum Command {
     Paper,
     /// Run a field script (`experiments/scripts/*.rhai`), the notes' FELT almost as printed.
     Script(crate::script::ScriptArgs),
+    /// Write `results/index.html`: every experiment's figures with captions and commands.
+    Gallery(crate::gallery::GalleryArgs),
 }
 
 /// `smokelab run`.
@@ -296,7 +298,7 @@ pub struct ExperimentArgs {
     /// Experiment id, e.g. `06-1` (see `--list`), or `all` to run every one in turn.
     pub id: Option<String>,
     /// List the experiments and what they reproduce.
-    #[arg(long)]
+    #[arg(long, conflicts_with_all = ["id", "out", "full", "smoke"])]
     pub list: bool,
     /// Output folder (default: `results/<id>/`; with `all`, the parent of
     /// one folder per experiment, default `results/`).
@@ -361,6 +363,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Some(Command::Noise(args)) => crate::noise_command::run(&args),
         Some(Command::Paper) => crate::paper::build(&crate::paper::repository_root()?),
         Some(Command::Script(args)) => crate::script::run(&args),
+        Some(Command::Gallery(args)) => crate::gallery::run(&args),
     }
 }
 

@@ -13,6 +13,7 @@ pub mod export;
 pub mod render_command;
 pub mod noise_command;
 pub mod paper;
+pub mod gallery;
 pub mod claims;
 pub mod progress;
 pub mod memory;

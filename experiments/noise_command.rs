@@ -234,12 +234,42 @@ impl NoiseArgs {
     }
 }
 
+/// The farthest lattice coordinate a noise may be sampled at: the same bound
+/// as `--time`, where f32 still holds a lattice cell's fraction to 1/16.
+/// A cube of size 10¹² gave speeds of 10³⁶ and one of 10³⁰ NaN everywhere.
+const MAX_REACH: f64 = 1e6;
+
+/// Refuse a cube whose far corner, in the last octave's lattice units
+/// (`size · lacunarity^(octaves−1)`), lies beyond [`MAX_REACH`]. The
+/// spectral kind is sampled on its own tile and has its own check.
+fn check_reach(spec: &NoiseSpec, size: f32) -> Result<(), InputError> {
+    let f = spec.fractal;
+    let reach = size as f64 * (f.lacunarity as f64).powi(f.octaves as i32 - 1);
+    if spec.kind == NoiseKind::Spectral || reach <= MAX_REACH {
+        return Ok(());
+    }
+    // Plain unless it is huge (or tiny), as in 1e30.
+    let shown = if (1e-3..1e6).contains(&size) {
+        size.to_string()
+    } else {
+        format!("{size:e}")
+    };
+    Err(InputError::new(format!(
+        "--size {shown} samples the lattice out to {reach:.3e} cells (octaves {}, lacunarity {}); \
+         it must be at most {MAX_REACH:.0e} (f32 positions lose the lattice's fraction beyond it): \
+         use a smaller --size or fewer octaves",
+        f.octaves, f.lacunarity
+    )))
+}
+
 /// Run `smokelab noise`.
 pub fn run(args: &NoiseArgs) -> Result<()> {
     let start = Instant::now();
     let spec = args.spec()?;
     let domain = args.domain()?;
+    check_reach(&spec, args.size)?;
     io::check_output_dir(&args.out)?;
+    crate::render_command::check_own_manifest(&args.out, "spec", "noise")?;
     let field = spec.build()?;
     io::create_output_dir(&args.out)?;
     let px = args.res.max(512);

@@ -133,6 +133,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let job = resolve(args)?;
     io::check_output_dir(&args.out)?;
+    check_own_manifest(&args.out, "densities", "render")?;
     let bar = progress::bar(
         expected_queries(&job.scene, &job.settings),
         "density samples",
@@ -369,7 +370,46 @@ fn render_box(
         (None, Some(g)) => g.cell * (g.dims.into_iter().max().unwrap_or(1) as f32 / cells),
         (None, None) => DEFAULT_SIZE / cells,
     };
+    let extent = cell * cells;
+    if !(EXTENT.0..=EXTENT.1).contains(&extent) {
+        return Err(InputError::new(format!(
+            "the box is {extent:e} world units along its longest axis (--size or the run's); \
+             it must lie between {:e} and {:e} for the renderer's f32 geometry",
+            EXTENT.0, EXTENT.1
+        )));
+    }
     Domain::new(origin, cell, [nx, ny, nz])
+}
+
+/// The box extents the renderer's f32 geometry handles: squared distances
+/// between the camera and the box stay far inside f32's range (a box of
+/// 10³⁰ overflowed them to infinity, one of 10⁻³⁰ underflowed them to 0,
+/// and both were refused as "camera and look-at coincide").
+const EXTENT: (f32, f32) = (1e-3, 1e9);
+
+/// Refuse an output folder whose `manifest.json` another command wrote
+/// (`render RUN_DIR --out RUN_DIR` replaced the run's manifest): a manifest
+/// of `command` has the key `own_key` in its configuration.
+///
+/// # Errors
+/// An [`InputError`] naming the folder.
+pub fn check_own_manifest(out: &Path, own_key: &str, command: &str) -> Result<(), InputError> {
+    let path = out.join("manifest.json");
+    if std::fs::symlink_metadata(&path).is_err() {
+        return Ok(());
+    }
+    let ours = io::input::read_text(&path, "manifest")
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .is_some_and(|m| m["config"].get(own_key).is_some());
+    if ours {
+        return Ok(());
+    }
+    Err(InputError::new(format!(
+        "output folder {} holds a manifest.json that `smokelab {command}` did not write (a run's?); \
+         writing there would replace it; give another --out",
+        out.display()
+    )))
 }
 
 /// Edge length of the box along its longest axis without a run or `--size`:

@@ -1,0 +1,162 @@
+//! Bad input found by trying odd values on every subcommand after the
+//! issue's list was fixed: each case used to run to exit 0 with a useless or
+//! destructive result, or fail with a misleading message. Each now exits 2
+//! with one line naming the value and what is valid, and writes nothing.
+
+mod common;
+
+use std::path::Path;
+
+use common::{small_hot_cold_run, smokelab};
+
+/// Run `args` in `cwd` and check it exits 2 with one line holding every
+/// needle.
+fn assert_refused(args: &[&str], cwd: &Path, needles: &[&str]) {
+    let o = smokelab(args, cwd);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert_eq!(
+        err.lines().filter(|l| !l.trim().is_empty()).count(),
+        1,
+        "{args:?}: {err}"
+    );
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: {err:?} does not mention {n:?}");
+    }
+}
+
+/// `render RUN_DIR --out RUN_DIR` replaced the run's manifest with the
+/// render's (exit 0), after which `render` and `export` refused the folder
+/// as not a run's. Likewise `noise --out RUN_DIR`.
+#[test]
+fn writing_over_a_run_folder_manifest_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    small_hot_cold_run(dir.path(), "run", &["--save-every", "2"]);
+    let manifest = std::fs::read(dir.path().join("run/manifest.json")).unwrap();
+    let files = std::fs::read_dir(dir.path().join("run")).unwrap().count();
+    assert_refused(
+        &["render", "run", "--out", "run", "--quiet"],
+        dir.path(),
+        &["output folder run holds a manifest.json", "another --out"],
+    );
+    assert_refused(
+        &["noise", "value", "--res", "8", "--out", "run", "--quiet"],
+        dir.path(),
+        &["smokelab noise", "another --out"],
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("run/manifest.json")).unwrap(),
+        manifest
+    );
+    assert_eq!(
+        std::fs::read_dir(dir.path().join("run")).unwrap().count(),
+        files
+    );
+    // A render's own folder may be rendered into again.
+    for _ in 0..2 {
+        let o = smokelab(
+            &["render", "run", "--image", "16x16", "--out", "r", "--quiet"],
+            dir.path(),
+        );
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+}
+
+/// `render --size 1e30` (and 1e-30) was refused as "camera position and
+/// look-at coincide": the squared distances overflowed (underflowed) f32.
+#[test]
+fn render_box_sizes_outside_f32_geometry_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    small_hot_cold_run(dir.path(), "run", &["--save-every", "2"]);
+    for size in ["1e30", "1e-30", "1e10"] {
+        assert_refused(
+            &["render", "run", "--size", size, "--out", "o", "--quiet"],
+            dir.path(),
+            &["world units along its longest axis", "between 1e-3 and 1e9"],
+        );
+        assert!(!dir.path().join("o").exists());
+    }
+    // The ends of the range render.
+    for size in ["1e-3", "1e9"] {
+        let o = smokelab(
+            &[
+                "render", "run", "--size", size, "--image", "16x16", "--out", "o", "--quiet",
+            ],
+            dir.path(),
+        );
+        assert!(
+            o.status.success(),
+            "{size}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+}
+
+/// `noise value --size 1e30` wrote an all-NaN volume and `--size 1e12`
+/// speeds of 10³⁶, both with exit 0: f32 positions that far out hold no
+/// fraction of a lattice cell.
+#[test]
+fn noise_sampled_beyond_f32_lattice_reach_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for size in ["1e30", "1e12", "2e6"] {
+        assert_refused(
+            &[
+                "noise", "value", "--res", "8", "--size", size, "--out", "o", "--quiet",
+            ],
+            dir.path(),
+            &["samples the lattice out to", "at most 1e6"],
+        );
+    }
+    // With octaves the last one's lattice counts: 4 × 2¹⁵ = 131072 is fine,
+    // 40 × 2¹⁵ = 1.3e6 is not.
+    assert_refused(
+        &[
+            "noise",
+            "value",
+            "--res",
+            "8",
+            "--size",
+            "40",
+            "--octaves",
+            "16",
+            "--out",
+            "o",
+            "--quiet",
+        ],
+        dir.path(),
+        &["1.311e6 cells"],
+    );
+    assert!(!dir.path().join("o").exists());
+    let o = smokelab(
+        &[
+            "noise",
+            "value",
+            "--res",
+            "8",
+            "--octaves",
+            "16",
+            "--out",
+            "o",
+            "--quiet",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// `experiment --list 03-2` listed and ignored the id (exit 0).
+#[test]
+fn experiment_list_with_an_id_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for args in [
+        &["experiment", "--list", "03-2"][..],
+        &["experiment", "03-2", "--list"],
+        &["experiment", "--list", "--out", "o"],
+    ] {
+        let o = smokelab(args, dir.path());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("cannot be used with"), "{args:?}: {err}");
+    }
+    assert!(!dir.path().join("o").exists());
+}
