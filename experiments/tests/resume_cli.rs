@@ -65,7 +65,9 @@ fn assert_same_run(full: &Path, resumed: &Path, frames: usize) {
         s.keys().filter(|n| n.ends_with(".npy")).cloned().collect()
     };
     assert_eq!(npy(&a), npy(&b), "the saved frames differ");
-    assert!(npy(&a).iter().any(|n| n == &format!("hot_{frames:04}.npy")));
+    assert!(npy(&a)
+        .iter()
+        .any(|n| n.ends_with(&format!("_{frames:04}.npy"))));
     for name in npy(&a) {
         assert!(
             a[&name] == b[&name],
@@ -194,6 +196,37 @@ fn a_finished_run_extends_bitwise_in_every_mode() {
     for mode in ["gridded", "gridless", "selma"] {
         extended(&["--density", mode]);
     }
+}
+
+/// Obstacles without warm-started solves (the notes' rule, semi-Lagrangian):
+/// a slab-box run cut at 7 frames (checkpoint at 6) and continued to 12 is
+/// the 12-frame run, bitwise.
+#[test]
+fn a_slab_box_run_with_the_notes_obstacles_extends_bitwise() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = |frames: &'static str| {
+        let mut a = vec!["run", "slab-box", "--res", "32", "--frames", frames];
+        a.extend([
+            "--save-every",
+            "4",
+            "--obstacles",
+            "notes",
+            "--advection",
+            "sl",
+        ]);
+        a.extend(["--quiet", "--out"]);
+        a
+    };
+    run_ok(&[args("12"), vec!["full"]].concat(), dir.path());
+    let part = [args("7"), vec!["part", "--checkpoint-every", "3"]];
+    run_ok(&part.concat(), dir.path());
+    run_ok(
+        &["run", "--resume", "part", "--frames", "12", "--quiet"],
+        dir.path(),
+    );
+    let part = dir.path().join("part");
+    assert_eq!(manifest(&part)["extra"]["resumed_from"], 6);
+    assert_same_run(&dir.path().join("full"), &part, 12);
 }
 
 /// FNV-1a 64 of `bytes`, the checkpoint's checksum.
