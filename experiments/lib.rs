@@ -8,6 +8,7 @@
 // Commands and the run driver.
 pub mod cli;
 pub mod run;
+pub mod checkpoint;
 pub mod frames;
 pub mod export;
 pub mod render_command;

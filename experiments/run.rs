@@ -16,6 +16,8 @@
 //! - `metrics.csv` — one row per step ([`MetricsRow`]), appended and flushed
 //!   as each step ends; the fine-sampled density measures are computed every
 //!   `metrics_every` steps and the last, `NaN` in between;
+//! - `checkpoint.bin` — with `--checkpoint-every K`: the whole state after
+//!   the latest K-th step ([`crate::checkpoint`]), for `run --resume`;
 //! - `manifest.json` — configuration, machine, commit, wall time, peak memory;
 //!   written at the start with `"status": "running"`, rewritten at the end
 //!   with `"status": "complete"`, or `"failed"` and the error if a step fails.
@@ -28,6 +30,7 @@ use std::time::Instant;
 use anyhow::{bail, Result};
 use serde::Serialize;
 
+use crate::checkpoint::{self, RunRecord};
 use crate::export::{write_frame_formats, FrameVolumes};
 use crate::frames::{FrameRecord, FrameRender};
 use crate::table::{field_names, Log};
@@ -129,8 +132,25 @@ pub struct RunSummary {
     pub source_rates: Vec<f64>,
     /// Per gas, the fine-sampled measures at the last step.
     pub final_measures: Vec<DensityMeasures>,
-    /// Volume renders written, in frame order, with their statistics.
+    /// Volume renders written, in frame order, with their statistics
+    /// (of a resumed run: those after the checkpoint).
     pub renders: Vec<FrameRecord>,
+    /// The checkpoint step a resumed run continued from (`wall_seconds`,
+    /// `stage_seconds` and `renders` then cover the steps after it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resumed_from: Option<usize>,
+}
+
+/// Checkpoints of a run, and the step it resumes from ([`run_checkpointed`]).
+#[derive(Clone, Debug)]
+pub struct Checkpointing {
+    /// Write `checkpoint.bin` after every this many steps (not after the last).
+    pub every: usize,
+    /// What the checkpoint records to continue the run.
+    pub record: RunRecord,
+    /// The step of the checkpoint the simulation was restored from
+    /// (`None`: a fresh run); `metrics.csv` must hold exactly its rows.
+    pub resumed_from: Option<usize>,
 }
 
 /// Fixed random points at which the interpolant's divergence is measured.
@@ -294,6 +314,19 @@ pub fn run<C: Serialize>(
     run_with(sim, opts, config, seed, |_, _| Ok(()))
 }
 
+/// [`run`] writing checkpoints, or continuing from one: a resumed run
+/// appends to `metrics.csv` after the checkpoint's row and reaches the
+/// frames and metrics rows of an uninterrupted run bitwise.
+pub fn run_checkpointed<C: Serialize>(
+    sim: &mut Simulation,
+    opts: &RunOptions,
+    config: &C,
+    seed: u64,
+    checkpoints: &Checkpointing,
+) -> Result<RunSummary> {
+    drive(sim, opts, config, seed, Some(checkpoints), |_, _| Ok(()))
+}
+
 /// [`run`], calling `at_saved(sim, frame)` after each saved frame is written
 /// (experiments capture their images there); its time counts as output.
 pub fn run_with<C: Serialize>(
@@ -301,11 +334,29 @@ pub fn run_with<C: Serialize>(
     opts: &RunOptions,
     config: &C,
     seed: u64,
+    at_saved: impl FnMut(&Simulation, usize) -> Result<()>,
+) -> Result<RunSummary> {
+    drive(sim, opts, config, seed, None, at_saved)
+}
+
+fn drive<C: Serialize>(
+    sim: &mut Simulation,
+    opts: &RunOptions,
+    config: &C,
+    seed: u64,
+    checkpoints: Option<&Checkpointing>,
     mut at_saved: impl FnMut(&Simulation, usize) -> Result<()>,
 ) -> Result<RunSummary> {
     let start = Instant::now();
-    let mut csv = Log::create(opts.out.join("metrics.csv"), &metric_columns(sim))?;
+    let resumed_from = checkpoints.and_then(|c| c.resumed_from);
+    let first = resumed_from.unwrap_or(0);
+    let metrics_path = opts.out.join("metrics.csv");
+    let mut csv = match resumed_from {
+        Some(_) => Log::append(metrics_path)?,
+        None => Log::create(metrics_path, &metric_columns(sim))?,
+    };
     let bar = crate::progress::bar(opts.frames as u64, "steps", opts.progress);
+    bar.set_position(first as u64);
     let domain = *sim.domain();
     let mut summary = RunSummary {
         grid: GridRecord {
@@ -329,7 +380,14 @@ pub fn run_with<C: Serialize>(
         source_rates: sim.gases.iter().map(|g| g.injected_per_step(1.0)).collect(),
         final_measures: vec![],
         renders: vec![],
+        resumed_from,
     };
+    // The frames a resumed run wrote before its checkpoint.
+    let earlier = (1..=first).filter(|&f| opts.save.contains(f, opts.frames));
+    for f in earlier {
+        summary.saved_frames.push(f);
+        summary.previews.push(preview_path(&opts.out, f));
+    }
     // At the start: what runs, where its grid sits and that it has not finished.
     io::write_json(
         &opts.out.join("manifest.json"),
@@ -343,12 +401,19 @@ pub fn run_with<C: Serialize>(
         let mut pvd = opts
             .paraview
             .then(|| PvdCollection::new(opts.out.join("run.pvd")));
+        if let Some(pvd) = pvd.as_mut() {
+            for &f in &summary.saved_frames {
+                // As `write_frame_formats` lists it: the f32 time's shortest decimal.
+                let time: f64 = (f as f32 * sim.params.dt).to_string().parse()?;
+                pvd.push(time, &format!("frame_{f:04}.vti"))?;
+            }
+        }
         let mut probe = DensityProbe::new(domain);
         let points = metrics::probe_points(&domain, PROBE_POINTS, 1);
         let mut spectrum = SpectralShare::new(domain.dims);
         let every = opts.metrics_every.max(1);
         let mut warned_cfl = false;
-        for frame in 1..=opts.frames {
+        for frame in first + 1..=opts.frames {
             if let Err(e) = sim.try_step() {
                 bail!(
                     "step {frame}: {e}; frames written so far are in {}",
@@ -470,6 +535,14 @@ pub fn run_with<C: Serialize>(
                 obstacles: obstacles.into_iter().collect(),
                 times: times.into(),
             })?;
+            // After the row, so that a checkpoint's metrics rows are all on disk.
+            if let Some(c) = checkpoints.filter(|c| c.every > 0) {
+                if frame % c.every == 0 && frame < opts.frames {
+                    timed(&mut times.output, || {
+                        checkpoint::write(&opts.out, sim, &c.record)
+                    })?;
+                }
+            }
             let s = &mut summary.stage_seconds;
             s.advect += times.advect;
             s.density += times.density;

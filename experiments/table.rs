@@ -83,6 +83,18 @@ impl Log {
         Ok(log)
     }
 
+    /// Open `path`, a log [`Self::create`] wrote, to append rows after its last.
+    pub fn append(path: PathBuf) -> Result<Self> {
+        let file = std::fs::OpenOptions::new()
+            .append(true)
+            .open(&path)
+            .with_context(|| format!("cannot append to {}", path.display()))?;
+        let csv = csv::WriterBuilder::new()
+            .has_headers(false)
+            .from_writer(BufWriter::new(file));
+        Ok(Self { path, csv })
+    }
+
     /// Append one row: a `#[derive(Serialize)]` value whose fields (nested
     /// structs and sequences flattened in order) match the header.
     pub fn push(&mut self, row: &impl Serialize) -> Result<()> {

@@ -34,8 +34,9 @@ use rayon::prelude::*;
 use crate::advection::{AdvectionOptions, Advector, Backtrace, CflError};
 use crate::boundary::{Boundary, ObstacleMethod};
 use crate::density::probe::cell_averages;
-use crate::density::{total_bytes, DensityModel, DensityOptions, StepInput};
+use crate::density::{total_bytes, DensityModel, DensityOptions, DensityState, StepInput};
 use crate::domain::Domain;
+use crate::error::InputError;
 use crate::field::Scalar;
 use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
 use crate::pressure::obstacles::{CgReport, ObstacleProjection, TOLERANCE};
@@ -123,6 +124,17 @@ impl Gas {
     pub fn injected_per_step(&self, dt: f32) -> f64 {
         self.source.total() * dt as f64
     }
+}
+
+/// The evolving state of a [`Simulation`] ([`Simulation::state`]).
+#[derive(Clone, Debug)]
+pub struct SimulationState {
+    /// Steps taken.
+    pub step_index: usize,
+    /// The velocity on the faces.
+    pub velocity: FaceGrid,
+    /// Per gas, its mass budget and density state.
+    pub gases: Vec<(MassBudget, DensityState)>,
 }
 
 /// Physical and numerical parameters of the step.
@@ -464,6 +476,67 @@ impl Simulation {
                 c.project(&mut self.velocity, b.open_faces(), &mut self.pressure);
             }
             _ => self.pressure.project(&mut self.velocity),
+        }
+    }
+
+    /// What changes as the simulation steps — the step count, the velocity
+    /// and every gas's density state and mass budget — for a checkpoint.
+    /// Everything else (sources, obstacles, transform plans, scratch
+    /// buffers) is rebuilt from the configuration and overwritten before it
+    /// is read, except the warm starts of the obstacle solves, so a run
+    /// with those is refused ([`Self::check_checkpointable`]).
+    pub fn state(&self) -> SimulationState {
+        SimulationState {
+            step_index: self.step_index,
+            velocity: self.velocity.clone(),
+            gases: self
+                .gases
+                .iter()
+                .map(|g| (g.budget, g.model.state()))
+                .collect(),
+        }
+    }
+
+    /// Put back a [`Self::state`] of a simulation built from the same
+    /// configuration: stepping on then reproduces the original run bitwise.
+    ///
+    /// # Errors
+    /// If the state does not fit this simulation (grid sizes, gases, modes).
+    pub fn restore(&mut self, state: SimulationState) -> Result<(), InputError> {
+        let v = &state.velocity;
+        if v.domain() != self.domain()
+            || v.kind() != self.velocity.kind()
+            || state.gases.len() != self.gases.len()
+        {
+            return Err(InputError::new(
+                "the state's grid or gases differ from the configuration's",
+            ));
+        }
+        for (gas, (budget, density)) in self.gases.iter_mut().zip(state.gases) {
+            gas.model.restore(density)?;
+            gas.budget = budget;
+        }
+        self.velocity = state.velocity;
+        self.step_index = state.step_index;
+        Ok(())
+    }
+
+    /// Whether [`Self::state`] holds everything that steps on: not with
+    /// obstacles solved by the obstacle-aware projection or QUICK's face
+    /// projection, which warm-start from the last step's pressure.
+    ///
+    /// # Errors
+    /// Naming the solve whose state would be lost.
+    pub fn check_checkpointable(&self) -> Result<(), InputError> {
+        let quick = matches!(self.advector, Advector::Quick { .. });
+        match (&self.boundary, &self.obstacle_projection) {
+            (Some(_), Some(_)) => Err(InputError::new(
+                "checkpoints do not hold the obstacle-aware solve's warm start; run obstacles with --obstacles notes to checkpoint",
+            )),
+            (Some(_), None) if quick => Err(InputError::new(
+                "checkpoints do not hold QUICK's face projection warm start with obstacles; use --advection sl to checkpoint",
+            )),
+            _ => Ok(()),
         }
     }
 

@@ -246,4 +246,35 @@ impl Gridless {
         out.push(Buffer::of_scalar(&self.centres));
         out.extend(self.field.velocities().map(|u| Buffer::of_faces(u)));
     }
+    /// The stored steps, oldest first, and the cell-centre cache: what a
+    /// checkpoint keeps (the initial density, source and walls are rebuilt
+    /// from the configuration).
+    pub fn state(&self) -> (Vec<HistoryStep>, ScalarGrid) {
+        let steps = self.field.steps.iter();
+        let history = steps
+            .map(|s| (Arc::clone(&s.velocity), s.dt, s.backtrace))
+            .collect();
+        (history, self.centres.clone())
+    }
+
+    /// Put back what [`Self::state`] returned (history and cache).
+    ///
+    /// # Panics
+    /// If a grid is on another domain.
+    pub fn restore(&mut self, history: Vec<HistoryStep>, centres: ScalarGrid) {
+        assert_eq!(
+            centres.domain(),
+            self.centres.domain(),
+            "gridless: cache domain"
+        );
+        self.field.steps.clear();
+        for (velocity, dt, backtrace) in history {
+            self.field.push(velocity, dt, backtrace);
+        }
+        self.centres = centres;
+    }
 }
+
+/// One stored step of a gridless history: its velocity grid (shared between
+/// gases), Δt and backtrace.
+pub type HistoryStep = (Arc<FaceGrid>, f32, Backtrace);

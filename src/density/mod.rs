@@ -46,8 +46,8 @@ use crate::field::{Scalar, VectorField};
 use crate::grid::{FaceGrid, ScalarGrid, VectorGrid};
 
 pub use gridded::Gridded;
-pub use gridless::{Gridless, GridlessField};
-pub use selma::{Selma, SelmaField};
+pub use gridless::{Gridless, GridlessField, HistoryStep};
+pub use selma::{Selma, SelmaField, SelmaState};
 
 /// A backward characteristic map `X(x)`, evaluated at many points at once:
 /// where the fluid now at `x` came from (gridless: the walk of eq 7.4;
@@ -414,6 +414,74 @@ impl DensityModel {
     pub fn bytes(&self) -> usize {
         total_bytes(self.buffers())
     }
+    /// What changes as the density steps: the state a checkpoint keeps.
+    pub fn state(&self) -> DensityState {
+        match self {
+            DensityModel::Gridded(g) => DensityState::Gridded(g.density().clone()),
+            DensityModel::Gridless(g) => {
+                let (history, centres) = g.state();
+                DensityState::Gridless { history, centres }
+            }
+            DensityModel::Selma(s) => DensityState::Selma(Box::new(s.state())),
+        }
+    }
+
+    /// Put back a [`Self::state`] of a density built with the same options.
+    ///
+    /// # Errors
+    /// If the state is of another mode or its grids have other sizes.
+    pub fn restore(&mut self, state: DensityState) -> Result<(), InputError> {
+        let mismatch = || InputError::new("density state of another mode or size");
+        match (self, state) {
+            (DensityModel::Gridded(g), DensityState::Gridded(d)) => {
+                let rho = g.density_mut();
+                if d.domain() != rho.domain() {
+                    return Err(mismatch());
+                }
+                rho.as_slice_mut().copy_from_slice(d.as_slice());
+            }
+            (DensityModel::Gridless(g), DensityState::Gridless { history, centres }) => {
+                let d = *g.density().domain();
+                if centres.domain() != &d || history.iter().any(|h| h.0.domain() != &d) {
+                    return Err(mismatch());
+                }
+                g.restore(history, centres);
+            }
+            (DensityModel::Selma(s), DensityState::Selma(state)) => {
+                let (md, d) = (*s.map_domain(), *s.density().domain());
+                let on = |g: &Domain, e: &Domain| g == e;
+                if !(on(state.disp.domain(), &md)
+                    && on(state.reference.domain(), &md)
+                    && on(state.lattice.domain(), &md)
+                    && on(state.centres.domain(), &d))
+                {
+                    return Err(mismatch());
+                }
+                s.restore(*state);
+            }
+            _ => return Err(mismatch()),
+        }
+        Ok(())
+    }
+}
+
+/// The evolving state of a [`DensityModel`] ([`DensityModel::state`]): the
+/// initial density, the source, obstacles and scratch buffers are not in
+/// it — they are rebuilt from the configuration.
+#[derive(Clone, Debug)]
+pub enum DensityState {
+    /// The density grid.
+    Gridded(ScalarGrid),
+    /// The velocity history (grids shared between gases) and the
+    /// cell-centre cache.
+    Gridless {
+        /// Stored steps, oldest first.
+        history: Vec<HistoryStep>,
+        /// The density at the cell centres after the last step.
+        centres: ScalarGrid,
+    },
+    /// The map, reference density and tracked lattice.
+    Selma(Box<SelmaState>),
 }
 
 /// Wrap `x` into `[lo, lo + len)`.

@@ -445,6 +445,59 @@ impl Selma {
         out.push(Buffer::of_vector(&self.lattice));
         out.extend(self.fresh.iter().map(Buffer::of_scalar));
     }
+    /// What changes as the density steps, for a checkpoint (the scratch
+    /// grids are overwritten before they are read; `ρ₀`, the source and the
+    /// walls come from the configuration).
+    pub fn state(&self) -> SelmaState {
+        SelmaState {
+            disp: (*self.field.disp).clone(),
+            reference: (*self.field.reference).clone(),
+            lattice: self.lattice.clone(),
+            composes_initial: self.field.initial.is_some(),
+            restarts: self.restarts,
+            centres: self.centres.clone(),
+        }
+    }
+
+    /// Put back what [`Self::state`] returned.
+    ///
+    /// # Panics
+    /// If a grid is on another domain than this density's.
+    pub fn restore(&mut self, state: SelmaState) {
+        let md = *self.map_domain();
+        assert!(
+            *state.disp.domain() == md
+                && *state.reference.domain() == md
+                && *state.lattice.domain() == md
+                && state.centres.domain() == self.centres.domain(),
+            "selma: checkpoint grids on another domain"
+        );
+        self.field.disp = Arc::new(state.disp);
+        self.field.reference = Arc::new(state.reference);
+        if !state.composes_initial {
+            self.field.initial = None;
+        }
+        self.lattice = state.lattice;
+        self.restarts = state.restarts;
+        self.centres = state.centres;
+    }
+}
+
+/// The evolving part of a [`Selma`] density ([`Selma::state`]).
+#[derive(Clone, Debug)]
+pub struct SelmaState {
+    /// The map's displacement `D = X − x`.
+    pub disp: VectorGrid,
+    /// `R(ξ)`, the density in reference coordinates.
+    pub reference: ScalarGrid,
+    /// The tracked lattice `Y(ξ)`.
+    pub lattice: VectorGrid,
+    /// Whether `ρ₀` is still composed (no re-anchoring yet).
+    pub composes_initial: bool,
+    /// Re-anchorings so far.
+    pub restarts: usize,
+    /// The density at the velocity grid's cell centres.
+    pub centres: ScalarGrid,
 }
 
 /// The 2×2×2 sub-points of a map cell around each of `centres`, wrapped

@@ -1,0 +1,358 @@
+//! Checkpoint and resume (issue 18 item 5): a run killed with SIGKILL after
+//! a checkpoint, resumed with `run --resume`, ends with the same frames
+//! (bitwise) and metrics rows (but the wall-clock columns) as a run that
+//! was never interrupted — in every density mode; and a bad `--resume`
+//! exits 2 with one line naming the problem, writing nothing.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::smokelab;
+
+fn manifest(dir: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).unwrap()).unwrap()
+}
+
+/// Every file of `dir` and its bytes.
+fn snapshot(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, std::fs::read(&p).unwrap())
+        })
+        .collect()
+}
+
+/// `metrics.csv` rows without the wall-clock columns (`t_*`).
+fn metric_rows(dir: &Path) -> Vec<Vec<String>> {
+    let text = std::fs::read_to_string(dir.join("metrics.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    lines
+        .map(|l| {
+            l.split(',')
+                .zip(&header)
+                .filter(|(_, c)| !c.starts_with("t_"))
+                .map(|(v, _)| v.to_string())
+                .collect()
+        })
+        .collect()
+}
+
+/// The run's flags at 16³ with `extra` (density mode, scheme).
+fn run_args<'a>(frames: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut a = vec!["run", "hot-cold", "--res", "16", "--frames", frames];
+    a.extend(["--save-every", "4", "--metrics-every", "3", "--quiet"]);
+    a.extend_from_slice(extra);
+    a
+}
+
+fn run_ok(args: &[&str], cwd: &Path) {
+    let o = smokelab(args, cwd);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// The frames and metrics rows of `resumed` are those of `full`, bitwise.
+fn assert_same_run(full: &Path, resumed: &Path, frames: usize) {
+    let (a, b) = (snapshot(full), snapshot(resumed));
+    let npy = |s: &BTreeMap<String, Vec<u8>>| -> Vec<String> {
+        s.keys().filter(|n| n.ends_with(".npy")).cloned().collect()
+    };
+    assert_eq!(npy(&a), npy(&b), "the saved frames differ");
+    assert!(npy(&a)
+        .iter()
+        .any(|n| n.ends_with(&format!("_{frames:04}.npy"))));
+    for name in npy(&a) {
+        assert!(
+            a[&name] == b[&name],
+            "{name} differs from the uninterrupted run's"
+        );
+    }
+    let (ra, rb) = (metric_rows(full), metric_rows(resumed));
+    assert_eq!(ra.len(), frames);
+    assert_eq!(ra, rb, "metrics rows differ");
+    assert_eq!(manifest(full)["config"], manifest(resumed)["config"]);
+    assert!(!b.keys().any(|n| n.ends_with(".tmp")), "{:?}", b.keys());
+}
+
+/// Start a run of (nearly) endless frames checkpointing every 4 steps, kill
+/// it with SIGKILL once it has written 6 metrics rows (so after the
+/// checkpoint of step 4), resume it to 16 frames, and compare with 16
+/// uninterrupted frames.
+fn killed_and_resumed(extra: &[&str], check_killed: impl Fn(&Path)) {
+    let dir = tempfile::tempdir().unwrap();
+    run_ok(
+        &[run_args("16", extra), vec!["--out", "full"]].concat(),
+        dir.path(),
+    );
+    let part = dir.path().join("part");
+    let mut args = run_args("100000", extra);
+    args.extend(["--checkpoint-every", "4", "--out"]);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_smokelab"))
+        .args(&args)
+        .arg(&part)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    let rows =
+        || std::fs::read_to_string(part.join("metrics.csv")).map_or(0, |t| t.lines().count() - 1);
+    while rows() < 6 {
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no 6th step after two minutes"
+        );
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let killed_rows = rows();
+    assert_eq!(manifest(&part)["status"], "running");
+    check_killed(&part);
+    let o = smokelab(
+        &["run", "--resume", "part", "--frames", "16", "--quiet"],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m = manifest(&part);
+    assert_eq!(m["status"], "complete");
+    let from = m["extra"]["resumed_from"].as_u64().unwrap() as usize;
+    assert!(
+        from % 4 == 0 && (4..16).contains(&from) && from <= killed_rows,
+        "{from}"
+    );
+    eprintln!("{extra:?}: killed after {killed_rows} rows, resumed from step {from}");
+    assert_same_run(&dir.path().join("full"), &part, 16);
+}
+
+/// A finished 10-frame run (checkpoint at step 8) continued to 16 frames:
+/// its rows 9–10 (row 10 measured as the last) and frame 10 are replaced,
+/// and it ends as a 16-frame run.
+fn extended(extra: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    run_ok(
+        &[run_args("16", extra), vec!["--out", "full"]].concat(),
+        dir.path(),
+    );
+    let args = [
+        run_args("10", extra),
+        vec!["--checkpoint-every", "4", "--out", "part"],
+    ];
+    run_ok(&args.concat(), dir.path());
+    let part = dir.path().join("part");
+    // Row 10 was the last, so it has the fine measures the 16-frame run lacks.
+    assert_ne!(
+        metric_rows(&part)[9],
+        metric_rows(&dir.path().join("full"))[9]
+    );
+    run_ok(
+        &["run", "--resume", "part", "--frames", "16", "--quiet"],
+        dir.path(),
+    );
+    assert_eq!(manifest(&part)["extra"]["resumed_from"], 8);
+    assert_same_run(&dir.path().join("full"), &part, 16);
+}
+
+#[test]
+fn a_killed_gridded_run_resumes_bitwise() {
+    killed_and_resumed(&["--density", "gridded"], |_| ());
+}
+
+#[test]
+fn a_killed_gridless_run_resumes_bitwise() {
+    killed_and_resumed(&["--density", "gridless"], |_| ());
+}
+
+#[test]
+fn a_killed_selma_run_resumes_bitwise() {
+    // A re-anchoring threshold low enough (τ = 0.0005 map cells, default 2)
+    // that the checkpoint holds a re-anchored map, checked in its header:
+    // measured 1 re-anchoring by step 4 (none with τ = 0.001: the flow
+    // starts at rest; 4 by step 8).
+    killed_and_resumed(&["--density", "selma", "--selma-remap", "0.0005"], |part| {
+        let bytes = std::fs::read(part.join("checkpoint.bin")).unwrap();
+        let len = u64::from_le_bytes(bytes[12..20].try_into().unwrap()) as usize;
+        let header: serde_json::Value = serde_json::from_slice(&bytes[20..20 + len]).unwrap();
+        for gas in header["gases"].as_array().unwrap() {
+            assert!(gas["restarts"].as_u64().unwrap() > 0, "{gas}");
+        }
+    });
+}
+
+#[test]
+fn a_killed_quick_run_resumes_bitwise() {
+    killed_and_resumed(&["--advection", "quick"], |_| ());
+}
+
+#[test]
+fn a_finished_run_extends_bitwise_in_every_mode() {
+    for mode in ["gridded", "gridless", "selma"] {
+        extended(&["--density", mode]);
+    }
+}
+
+/// Obstacles without warm-started solves (the notes' rule, semi-Lagrangian):
+/// a slab-box run cut at 7 frames (checkpoint at 6) and continued to 12 is
+/// the 12-frame run, bitwise.
+#[test]
+fn a_slab_box_run_with_the_notes_obstacles_extends_bitwise() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = |frames: &'static str| {
+        let mut a = vec!["run", "slab-box", "--res", "32", "--frames", frames];
+        a.extend([
+            "--save-every",
+            "4",
+            "--obstacles",
+            "notes",
+            "--advection",
+            "sl",
+        ]);
+        a.extend(["--quiet", "--out"]);
+        a
+    };
+    run_ok(&[args("12"), vec!["full"]].concat(), dir.path());
+    let part = [args("7"), vec!["part", "--checkpoint-every", "3"]];
+    run_ok(&part.concat(), dir.path());
+    run_ok(
+        &["run", "--resume", "part", "--frames", "12", "--quiet"],
+        dir.path(),
+    );
+    let part = dir.path().join("part");
+    assert_eq!(manifest(&part)["extra"]["resumed_from"], 6);
+    assert_same_run(&dir.path().join("full"), &part, 12);
+}
+
+/// FNV-1a 64 of `bytes`, the checkpoint's checksum.
+fn fnv(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+/// `file` with `edit` applied to its body and the checksum recomputed.
+fn reseal(file: &Path, edit: impl FnOnce(&mut Vec<u8>)) {
+    let mut body = std::fs::read(file).unwrap();
+    body.truncate(body.len() - 8);
+    edit(&mut body);
+    let hash = fnv(&body);
+    body.extend(hash.to_le_bytes());
+    std::fs::write(file, body).unwrap();
+}
+
+/// `--resume` of `dir` fails with exit 2 and one line containing `what`,
+/// changing nothing in the folder.
+fn refused(cwd: &Path, args: &[&str], dir: &Path, what: &str) {
+    let before = snapshot(dir);
+    let o = smokelab(args, cwd);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains(what), "{args:?}: expected '{what}' in: {err}");
+    assert!(
+        snapshot(dir) == before,
+        "{args:?} changed {}",
+        dir.display()
+    );
+}
+
+#[test]
+fn bad_resumes_exit_2_and_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let cwd = dir.path();
+    run_ok(
+        &[
+            run_args("10", &[]),
+            vec!["--checkpoint-every", "4", "--out", "good"],
+        ]
+        .concat(),
+        cwd,
+    );
+    let copy = |name: &str| {
+        let to = cwd.join(name);
+        std::fs::create_dir(&to).unwrap();
+        for (n, bytes) in snapshot(&cwd.join("good")) {
+            std::fs::write(to.join(n), bytes).unwrap();
+        }
+        to
+    };
+    let resume = |name: &'static str| ["run", "--resume", name, "--frames", "16"];
+
+    run_ok(&[run_args("4", &[]), vec!["--out", "plain"]].concat(), cwd);
+    refused(
+        cwd,
+        &resume("plain"),
+        &cwd.join("plain"),
+        "has no checkpoint.bin",
+    );
+
+    let d = copy("truncated");
+    let ckpt = d.join("checkpoint.bin");
+    let len = std::fs::metadata(&ckpt).unwrap().len();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&ckpt)
+        .unwrap()
+        .set_len(len / 2)
+        .unwrap();
+    refused(cwd, &resume("truncated"), &d, "truncated or corrupt");
+
+    let d = copy("corrupt");
+    let mut bytes = std::fs::read(d.join("checkpoint.bin")).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x10;
+    std::fs::write(d.join("checkpoint.bin"), bytes).unwrap();
+    refused(cwd, &resume("corrupt"), &d, "truncated or corrupt");
+
+    let d = copy("format");
+    reseal(&d.join("checkpoint.bin"), |b| b[8] = 99);
+    refused(cwd, &resume("format"), &d, "checkpoint format 99");
+
+    let d = copy("version");
+    reseal(&d.join("checkpoint.bin"), |b| {
+        let at = b.windows(11).position(|w| w == b"\"version\":\"").unwrap() + 11;
+        b[at] = b'7';
+    });
+    refused(cwd, &resume("version"), &d, "was written by smokelab 7");
+
+    let d = copy("config");
+    let mut m = manifest(&d);
+    m["config"]["dt"] = serde_json::json!(0.07);
+    std::fs::write(d.join("manifest.json"), m.to_string()).unwrap();
+    refused(cwd, &resume("config"), &d, "another configuration");
+
+    let good = cwd.join("good");
+    refused(cwd, &["run", "--resume", "good"], &good, "is complete");
+    refused(
+        cwd,
+        &["run", "--resume", "good", "--frames", "8"],
+        &good,
+        "--frames N > 8",
+    );
+    let args = ["run", "--resume", "good", "--frames", "16", "--res", "8"];
+    refused(cwd, &args, &good, "drop --res");
+
+    // A run whose state a checkpoint would not hold is refused before it starts.
+    let o = smokelab(
+        &[
+            "run",
+            "slab-box",
+            "--res",
+            "32",
+            "--frames",
+            "4",
+            "--checkpoint-every",
+            "2",
+        ],
+        cwd,
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("warm start"));
+    assert!(!cwd.join("runs").exists());
+}
