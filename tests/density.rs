@@ -131,6 +131,30 @@ fn gridless_is_the_initial_density_at_the_composed_backtrace() {
     }
 }
 
+/// A batch walks eight points at a time through the AVX2 kernel (where the
+/// CPU has it, for Euler and RK2) and a lone point through the scalar
+/// backtrace; the densities must agree to the bit, for points inside the box
+/// and near its periodic faces (whose groups fall back to the scalar path).
+#[test]
+fn batched_gridless_walk_is_the_single_point_walk_to_the_bit() {
+    let u = abc_grid(16);
+    let d = *u.domain();
+    let pts = points(4000, 7);
+    for bt in Backtrace::ALL {
+        let mut g = GridlessField::new(d, Some(Arc::new(Blob)), None);
+        for _ in 0..6 {
+            g.push(u.clone(), 0.3, bt);
+        }
+        let batch = eval(&g, &pts);
+        let differ = pts
+            .iter()
+            .zip(&batch)
+            .filter(|&(&p, v)| g.eval(p).to_bits() != v.to_bits())
+            .count();
+        assert_eq!(differ, 0, "{bt:?}: {differ} of {} points differ", pts.len());
+    }
+}
+
 /// `ρ₀` at the exact flow's backward map over time `t`: classical RK4 with
 /// a tiny step on the analytic velocity.
 fn exact_backward(p: Vec3, t: f32) -> Vec3 {

@@ -6,16 +6,24 @@
 //! warmed to that step count (cloning is not timed), so the step count does
 //! not drift during measurement.
 //!
+//! `gridless/walk` times the gridless walk alone (eq 7.4): every cell
+//! centre of a 32³ sphere-wall flow walked back through its 20 stored
+//! velocity grids (RK2) on one thread; elements/s = cells × stored steps, so
+//! its inverse is the cost per cell per stored step per thread.
+//!
 //! Run: `cargo bench --bench density` (a few minutes; the warm-up of the
-//! 50³ gridless runs dominates).
+//! 50³ gridless runs dominates); `cargo bench --bench density -- gridless/walk`
+//! for the walk alone (seconds).
 
 use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion, Throughput};
-use smokelab::density::DensityMode;
+use glam::Vec3;
+use smokelab::density::{BackwardMap, DensityMode, GridlessField};
 use smokelab::scenario::hot_cold::HotColdConfig;
+use smokelab::scenario::sphere_wall::{FlowHistory, SphereWallConfig};
 use smokelab::simulation::Simulation;
 
 /// A hot/cold simulation at `res`³ held as `mode`, stepped `steps` times.
@@ -54,5 +62,38 @@ fn benches(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(density, benches);
+/// Cell centres of a 32³ flow walked back through its 20 stored steps.
+fn walk(c: &mut Criterion) {
+    let config = SphereWallConfig {
+        res: 32,
+        frames: 20,
+        ..SphereWallConfig::default()
+    };
+    let flow = FlowHistory::record(&config).expect("valid config");
+    let mut chain = GridlessField::new(flow.domain, None, None);
+    for u in &flow.velocities {
+        chain.push(u.clone(), flow.dt, flow.backtrace);
+    }
+    let d = flow.domain;
+    let points: Vec<Vec3> = (0..d.len())
+        .map(|i| {
+            let [nx, ny, _] = d.dims;
+            d.world_of(Vec3::new(
+                (i % nx) as f32,
+                (i / nx % ny) as f32,
+                (i / (nx * ny)) as f32,
+            ))
+        })
+        .collect();
+    let mut out = vec![Vec3::ZERO; points.len()];
+    let mut g = c.benchmark_group("gridless");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(3));
+    g.throughput(Throughput::Elements((points.len() * chain.steps()) as u64));
+    g.bench_function("walk", |b| b.iter(|| chain.map_batch(&points, &mut out)));
+    g.finish();
+}
+
+criterion_group!(density, benches, walk);
 criterion_main!(density);

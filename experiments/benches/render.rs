@@ -4,7 +4,15 @@
 //! settings, figs 7.10 and 8.2). Criterion reports elements/s = camera-ray
 //! density samples per second (light-grid construction included in the time).
 //!
-//! Run: `cargo bench --bench render` (about a minute on 2 cores).
+//! `render_gridless_wall` is fig 7.10's worst point (07-10 at `--full`:
+//! the 50³ sphere wall held gridless for all 60 frames, march step
+//! cell/10) at 64×48 instead of 640×480: elements/s = camera samples per
+//! second. The setup prints the sample count of the full 640×480 render
+//! (taken from the unadvected wall, which marches the same rays), so the
+//! full render's time is extrapolated as that count over the measured rate.
+//!
+//! Run: `cargo bench --bench render` (a few minutes on 2 cores);
+//! `-- render_gridless_wall` for the fig 7.10 point alone.
 
 use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
@@ -12,8 +20,13 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use smokelab::render::{look, render, RenderSettings};
+use glam::Vec3;
+use smokelab::domain::Domain;
+use smokelab::render::camera::Camera;
+use smokelab::render::phase::Phase;
+use smokelab::render::{look, render, RenderSettings, Scene};
 use smokelab::scenario::hot_cold::HotColdConfig;
+use smokelab::scenario::sphere_wall::{AdvectedWall, FlowHistory, SphereWallConfig, Wall};
 use smokelab_app::frames::simulation_scene;
 
 fn bench_render(c: &mut Criterion) {
@@ -50,5 +63,69 @@ fn bench_render(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_render);
+/// The sphere wall's rows as 07-10 renders them (experiments'
+/// `sphere_wall_series::render_wall`: κ = 4, the key light, the framed
+/// slab around the wall), march step `cell / 10`, `width × height`.
+fn wall_render(
+    state: &AdvectedWall,
+    d: Domain,
+    width: u32,
+    height: u32,
+) -> (Scene, RenderSettings) {
+    let volumes = state
+        .rows
+        .iter()
+        .enumerate()
+        .map(|(i, r)| look::smoke(format!("row{i}"), r.clone(), Vec3::ONE, 4.0, look::GLOW))
+        .collect();
+    let scene = Scene {
+        bounds: d,
+        volumes,
+        lights: vec![look::key_light(&d)],
+        phase: Phase::Isotropic,
+    };
+    let size = d.size();
+    let view = Domain::new(
+        d.origin + size * Vec3::new(0.05, 0.05, 0.35),
+        0.05 * size.x,
+        [18, 18, 6],
+    )
+    .expect("valid view");
+    let settings = RenderSettings {
+        step: Some(d.cell / 10.0),
+        ..RenderSettings::new(Camera::framing(&view, width, height, 0.95))
+    };
+    (scene, settings)
+}
+
+fn bench_gridless_wall(c: &mut Criterion) {
+    let config = SphereWallConfig::default();
+    let flow = FlowHistory::record(&config).expect("valid config");
+    let wall = Wall::new(&config);
+    let d = flow.domain;
+    let plain = AdvectedWall::gridless(&wall, None, &flow, 0).expect("k = 0");
+    let (scene, settings) = wall_render(&plain, d, 640, 480);
+    let full = render(&scene, &settings).expect("valid render").stats;
+    eprintln!("render_gridless_wall: 640x480 has {} samples", full.samples);
+    let state = AdvectedWall::gridless(&wall, None, &flow, config.frames).expect("k = F");
+    let (scene, settings) = wall_render(&state, d, 64, 48);
+    let probe = render(&scene, &settings).expect("valid render").stats;
+    eprintln!(
+        "render_gridless_wall: 64x48 has {} samples, one render {:.2} s",
+        probe.samples, probe.seconds
+    );
+    let mut group = c.benchmark_group("render_gridless_wall");
+    group.sample_size(10);
+    group.warm_up_time(Duration::from_secs(1));
+    group.throughput(Throughput::Elements(probe.samples));
+    group.measurement_time(Duration::from_secs_f64(
+        (12.0 * probe.seconds).clamp(3.0, 60.0),
+    ));
+    group.bench_function("k60_cell_over_10_64x48", |b| {
+        b.iter(|| black_box(render(&scene, &settings).expect("valid render")))
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_render, bench_gridless_wall);
 criterion_main!(benches);
