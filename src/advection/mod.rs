@@ -13,7 +13,7 @@
 
 mod closed_faces;
 #[cfg(target_arch = "x86_64")]
-mod face_simd;
+pub(crate) mod simd;
 mod lattice;
 pub mod quick;
 pub mod semi_lagrangian;

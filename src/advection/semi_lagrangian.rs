@@ -26,7 +26,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 #[cfg(target_arch = "x86_64")]
-use super::face_simd;
+use super::simd;
 use super::Backtrace;
 use crate::domain::Domain;
 use crate::grid::face::FaceSampler;
@@ -192,14 +192,6 @@ pub fn advect_faces(
     dst.zero_walls();
 }
 
-/// The AVX2 kernel's view of the velocity when this CPU has AVX2 and the
-/// lattices fit its 32-bit indices; `None` otherwise (scalar sweep only).
-#[cfg(target_arch = "x86_64")]
-fn simd_lattices(vel: FaceSampler) -> Option<face_simd::Lattices> {
-    let (data, dims) = vel.lattices();
-    (face_simd::available() && face_simd::fits(&dims)).then_some(face_simd::Lattices { data, dims })
-}
-
 /// Component `A` of [`advect_faces`]: `out[f] = data(x_d(f))` for every
 /// face `f` of the lattice `dims`, `x_d` traced back from the face centre
 /// through `(velocity, Δt/Δx, backtrace)`. The axis is a constant so that
@@ -217,7 +209,7 @@ fn face_sweep<const A: usize>(
         "advect_faces: lattice"
     );
     #[cfg(target_arch = "x86_64")]
-    let simd = simd_lattices(vel);
+    let simd = simd::lattices(vel);
     let scalar = |[i, j, k]: [usize; 3]| {
         let mut c = Vec3::new(i as f32, j as f32, k as f32);
         c[A] -= 0.5;
@@ -240,12 +232,11 @@ fn face_sweep<const A: usize>(
                     i = 1;
                     while i + 9 <= cells[0] {
                         // SAFETY: AVX2 and lattice sizes checked by
-                        // simd_lattices; `data` has A's lattice length
+                        // simd::lattices; `data` has A's lattice length
                         // (asserted above); 1 ≤ i, i + 8 ≤ n_x − 1 and j, k
                         // inside as faces8 requires.
-                        let got = unsafe {
-                            face_simd::faces8::<A>(lat, data, [i, j, k], dt_cells, backtrace)
-                        };
+                        let got =
+                            unsafe { simd::faces8::<A>(lat, data, [i, j, k], dt_cells, backtrace) };
                         match got {
                             Some(v) => row[i..i + 8].copy_from_slice(&v),
                             None => {
@@ -318,7 +309,7 @@ pub fn advect_fused(
     // then sweep each density through them, eight at once where their
     // stencils lie inside the grid. Scalar paths do the same operations.
     #[cfg(target_arch = "x86_64")]
-    let simd = simd_lattices(sampler);
+    let simd = simd::lattices(sampler);
     let cells = d.dims;
     let scalar_point = |c: [usize; 3]| {
         let g = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32);
@@ -336,12 +327,11 @@ pub fn advect_fused(
                         let [px, py, pz] = &mut *points;
                         let lanes = [&mut px[done..], &mut py[done..], &mut pz[done..]];
                         // SAFETY: AVX2 and lattice sizes checked by
-                        // simd_lattices; the cells' upper faces are inside
+                        // simd::lattices; the cells' upper faces are inside
                         // (done + 8 < m_x of u, j + 1 < m_y of v, k + 1 <
                         // m_z of w), and every lane slice holds eight.
-                        let traced = unsafe {
-                            face_simd::cells8(lat, [done, j, k], dt_cells, backtrace, lanes)
-                        };
+                        let traced =
+                            unsafe { simd::cells8(lat, [done, j, k], dt_cells, backtrace, lanes) };
                         if !traced {
                             for i in done..done + 8 {
                                 set_point(points, i, scalar_point([i, j, k]));
@@ -364,7 +354,7 @@ pub fn advect_fused(
                             // SAFETY: AVX2 checked by simd_lattices; the
                             // cell grid is smaller than w's lattice, which fits.
                             let sampled =
-                                unsafe { face_simd::sample8(data, cells, g, &mut out[done..]) };
+                                unsafe { simd::sample8(data, cells, g, &mut out[done..]) };
                             if !sampled {
                                 for (i, o) in out.iter_mut().enumerate().skip(done).take(8) {
                                     *o = Stencil::new(point(points, i), cells, *wrap).apply(data);

@@ -14,36 +14,41 @@
 
 use std::arch::x86_64::*;
 
+use glam::Vec3;
+
+use crate::grid::face::FaceSampler;
+
 use super::Backtrace;
 
 /// The velocity lattices: component slices, lattice sizes `[mx, my, mz]`
 /// and the domain's cell counts, as [`crate::grid::face::FaceSampler`] holds
 /// them.
 #[derive(Clone, Copy)]
-pub(super) struct Lattices<'a> {
+pub(crate) struct Lattices<'a> {
     /// Components `[u, v, w]`, flat `[z][y][x]`.
     pub data: [&'a [f32]; 3],
     /// Lattice size of each component.
     pub dims: [[usize; 3]; 3],
 }
 
-/// Whether this CPU runs [`faces8`].
-pub(super) fn available() -> bool {
-    is_x86_feature_detected!("avx2")
+/// The kernels' view of a velocity when this CPU has AVX2 and the lattices
+/// fit them (gathers take 32-bit indices; a lane outside reads the first
+/// corner's 2×2×2 block, so every lattice is at least 2 along each axis);
+/// `None` otherwise (scalar paths only).
+pub(crate) fn lattices(vel: FaceSampler) -> Option<Lattices> {
+    let (data, dims) = vel.lattices();
+    let fits = dims
+        .iter()
+        .all(|d| d.iter().all(|&m| m >= 2) && d[0] * d[1] * d[2] < i32::MAX as usize / 2);
+    (is_x86_feature_detected!("avx2") && fits).then_some(Lattices { data, dims })
 }
 
-/// Whether the AVX2 kernel can index lattices of these sizes (gathers take
-/// 32-bit indices).
-pub(super) fn fits(dims: &[[usize; 3]; 3]) -> bool {
-    dims.iter()
-        .all(|d| d[0] * d[1] * d[2] < i32::MAX as usize / 2)
-}
-
-/// `⌊g⌋` per lane and `g − ⌊g⌋`, and whether `0 ≤ ⌊g⌋ ≤ n − 2` in every
-/// lane (the scalar `floor_inside`: truncation plus a correction).
+/// `⌊g⌋` per lane (0 where it is outside) and `g − ⌊g⌋`, and the lanes
+/// where `0 ≤ ⌊g⌋ ≤ n − 2` (all ones; the scalar `floor_inside`:
+/// truncation plus a correction).
 #[inline]
 #[target_feature(enable = "avx2")]
-fn floor_inside8(g: __m256, n: usize) -> (__m256i, __m256, bool) {
+fn floor_inside8(g: __m256, n: usize) -> (__m256i, __m256, __m256i) {
     let t = _mm256_cvttps_epi32(g);
     // −1 where the truncation rounded up (negative non-integers).
     let up = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_cvtepi32_ps(t), g));
@@ -51,24 +56,33 @@ fn floor_inside8(g: __m256, n: usize) -> (__m256i, __m256, bool) {
     let frac = _mm256_sub_ps(g, _mm256_cvtepi32_ps(f));
     let low = _mm256_cmpgt_epi32(f, _mm256_set1_epi32(-1));
     let high = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32 - 1), f);
-    let ok = _mm256_movemask_epi8(_mm256_and_si256(low, high)) == -1;
-    (f, frac, ok)
+    let ok = _mm256_and_si256(low, high);
+    (_mm256_and_si256(f, ok), frac, ok)
+}
+
+/// Whether every lane of a mask is set.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn all(ok: __m256i) -> bool {
+    _mm256_movemask_epi8(ok) == -1
 }
 
 /// Trilinear interpolation of `data` (lattice `d`) at lattice coordinates
-/// `(gx, gy, gz)` in eight lanes, or `None` if a stencil leaves the lattice.
+/// `(gx, gy, gz)` in eight lanes, and the lanes whose stencil lies inside
+/// the lattice (all ones); the others read the lattice's first corner
+/// instead and must be redone by the wrapping scalar path. Corners, weights
+/// and sum in `trilinear_inside`'s order.
 ///
 /// # Safety
-/// `data.len() ≥ mx·my·mz < 2³⁰` ([`fits`]) and the CPU has AVX2.
+/// `data.len() ≥ mx·my·mz < 2³⁰`, every `m ≥ 2` ([`lattices`]), and the CPU has
+/// AVX2.
 #[inline]
 #[target_feature(enable = "avx2")]
-unsafe fn trilinear8(data: &[f32], d: [usize; 3], g: [__m256; 3]) -> Option<__m256> {
+unsafe fn trilinear8(data: &[f32], d: [usize; 3], g: [__m256; 3]) -> (__m256, __m256i) {
     let (x, tx, okx) = floor_inside8(g[0], d[0]);
     let (y, ty, oky) = floor_inside8(g[1], d[1]);
     let (z, tz, okz) = floor_inside8(g[2], d[2]);
-    if !(okx && oky && okz) {
-        return None;
-    }
+    let ok = _mm256_and_si256(okx, _mm256_and_si256(oky, okz));
     let (nx, nxy) = (d[0] as i32, (d[0] * d[1]) as i32);
     let r = _mm256_add_epi32(
         _mm256_mullo_epi32(
@@ -89,10 +103,11 @@ unsafe fn trilinear8(data: &[f32], d: [usize; 3], g: [__m256; 3]) -> Option<__m2
     for (cy, cz) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
         let at = _mm256_add_epi32(r, _mm256_set1_epi32(cy as i32 * nx + cz as i32 * nxy));
         let pairs = data.as_ptr().cast::<i64>();
-        // SAFETY: every lane has x ≤ mx − 2, y ≤ my − 2, z ≤ mz − 2, so the
-        // pair at its index ends at most at ((z + 1)·my + y + 1)·mx + x + 1
+        // SAFETY: every lane has x ≤ mx − 2, y ≤ my − 2, z ≤ mz − 2 (lanes
+        // outside read x = y = z = 0, and every m ≥ 2), so the pair at its
+        // index ends at most at ((z + 1)·my + y + 1)·mx + x + 1
         // < mx·my·mz ≤ data.len(); indices are below 2³⁰ (no i32 overflow,
-        // [`fits`]); gathers need no alignment.
+        // [`lattices`]); gathers need no alignment.
         let (low, high) = unsafe {
             (
                 _mm256_castsi256_ps(_mm256_i32gather_epi64::<4>(
@@ -120,7 +135,7 @@ unsafe fn trilinear8(data: &[f32], d: [usize; 3], g: [__m256; 3]) -> Option<__m2
             acc = _mm256_add_ps(acc, _mm256_mul_ps(weight, v));
         }
     }
-    Some(acc)
+    (acc, ok)
 }
 
 /// Eight contiguous values of `data` from `at`.
@@ -135,13 +150,37 @@ fn load8(data: &[f32], at: usize) -> __m256 {
     unsafe { _mm256_loadu_ps(s.as_ptr()) }
 }
 
-/// The departure points of eight points `c` (grid coordinates) whose
-/// velocities are `u0`, traced back through `vel` over `dt_cells = Δt/Δx`
-/// (Euler or RK2) as the scalar `departure` does, or `None` if an RK2
-/// midpoint's stencil would wrap or clamp.
+/// The velocity at eight points `g` (cell-centre grid coordinates):
+/// component `a` trilinear on its lattice at `g + ½e_a`
+/// (`FaceSampler::at`), and the lanes whose stencils lie inside every
+/// lattice (all ones).
 ///
 /// # Safety
-/// The CPU has AVX2 and `vel.dims` passes [`fits`].
+/// The CPU has AVX2 and `vel.dims` passes [`lattices`].
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn velocity8(vel: Lattices, g: [__m256; 3]) -> ([__m256; 3], __m256i) {
+    let mut u = [_mm256_setzero_ps(); 3];
+    let mut ok = _mm256_set1_epi32(-1);
+    for (b, ub) in u.iter_mut().enumerate() {
+        let mut p = g;
+        p[b] = _mm256_add_ps(p[b], _mm256_set1_ps(0.5));
+        // SAFETY: the lattice of b has vel.data[b]'s length (fits).
+        let (v, inside) = unsafe { trilinear8(vel.data[b], vel.dims[b], p) };
+        *ub = v;
+        ok = _mm256_and_si256(ok, inside);
+    }
+    (u, ok)
+}
+
+/// The departure points of eight points `c` (grid coordinates) whose
+/// velocities are `u0`, traced back through `vel` over `dt_cells = Δt/Δx`
+/// (Euler or RK2) as the scalar `departure` does, and the lanes whose RK2
+/// midpoint stencils lie inside the lattices (all ones; every lane for
+/// Euler, none for RK3, which is left to the scalar path).
+///
+/// # Safety
+/// The CPU has AVX2 and `vel.dims` passes [`lattices`].
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn trace8(
@@ -150,24 +189,18 @@ unsafe fn trace8(
     u0: [__m256; 3],
     dt_cells: f32,
     backtrace: Backtrace,
-) -> Option<[__m256; 3]> {
+) -> ([__m256; 3], __m256i) {
     let step = |u: [__m256; 3], s: f32| -> [__m256; 3] {
         std::array::from_fn(|a| _mm256_sub_ps(c[a], _mm256_mul_ps(_mm256_set1_ps(s), u[a])))
     };
     match backtrace {
-        Backtrace::Euler => Some(step(u0, dt_cells)),
+        Backtrace::Euler => (step(u0, dt_cells), _mm256_set1_epi32(-1)),
         Backtrace::Rk2 => {
-            let mid = step(u0, 0.5 * dt_cells);
-            let mut u1 = [_mm256_setzero_ps(); 3];
-            for (b, u) in u1.iter_mut().enumerate() {
-                let mut p = mid;
-                p[b] = _mm256_add_ps(p[b], _mm256_set1_ps(0.5));
-                // SAFETY: the lattice of b has vel.data[b]'s length (fits).
-                *u = unsafe { trilinear8(vel.data[b], vel.dims[b], p) }?;
-            }
-            Some(step(u1, dt_cells))
+            // SAFETY: as this function's.
+            let (u1, ok) = unsafe { velocity8(vel, step(u0, 0.5 * dt_cells)) };
+            (step(u1, dt_cells), ok)
         }
-        Backtrace::Rk3 => None,
+        Backtrace::Rk3 => (c, _mm256_setzero_si256()),
     }
 }
 
@@ -181,7 +214,7 @@ unsafe fn trace8(
 /// (the four-face averages of `FaceSampler::at_face`) need no wrap.
 ///
 /// # Safety
-/// The CPU has AVX2 ([`available`]) and `vel.dims` passes [`fits`]; `data`
+/// The CPU has AVX2 ([`lattices`]) and `vel.dims` passes [`lattices`]; `data`
 /// has component `A`'s lattice length.
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn faces8<const A: usize>(
@@ -214,11 +247,17 @@ pub(super) unsafe fn faces8<const A: usize>(
         _mm256_mul_ps(_mm256_set1_ps(0.25), sum)
     });
     // SAFETY: as this function's.
-    let g = unsafe { trace8(vel, c, u0, dt_cells, backtrace) }?;
+    let (g, traced) = unsafe { trace8(vel, c, u0, dt_cells, backtrace) };
+    if !all(traced) {
+        return None;
+    }
     let mut p = g;
     p[A] = _mm256_add_ps(p[A], _mm256_set1_ps(0.5));
     // SAFETY: `data` has component A's lattice length (caller).
-    let v = unsafe { trilinear8(data, vel.dims[A], p) }?;
+    let (v, inside) = unsafe { trilinear8(data, vel.dims[A], p) };
+    if !all(inside) {
+        return None;
+    }
     let mut out = [0.0; 8];
     store8(&mut out, v);
     Some(out)
@@ -235,7 +274,7 @@ pub(super) unsafe fn faces8<const A: usize>(
 /// mx` of `u`, `j + 1 < my` of `v`, `k + 1 < mz` of `w`), so no face wraps.
 ///
 /// # Safety
-/// The CPU has AVX2 ([`available`]) and `vel.dims` passes [`fits`].
+/// The CPU has AVX2 ([`lattices`]) and `vel.dims` passes [`lattices`].
 ///
 /// # Panics
 /// If an `out` slice is shorter than eight.
@@ -261,9 +300,10 @@ pub(super) unsafe fn cells8(
         _mm256_mul_ps(_mm256_set1_ps(0.5), sum)
     });
     // SAFETY: as this function's.
-    let Some(g) = (unsafe { trace8(vel, c, u0, dt_cells, backtrace) }) else {
+    let (g, traced) = unsafe { trace8(vel, c, u0, dt_cells, backtrace) };
+    if !all(traced) {
         return false;
-    };
+    }
     for (o, v) in out.into_iter().zip(g) {
         store8(o, v);
     }
@@ -275,7 +315,7 @@ pub(super) unsafe fn cells8(
 /// `false` (nothing written) if a stencil would wrap or clamp.
 ///
 /// # Safety
-/// The CPU has AVX2; `dims` passes [`fits`] as a lattice.
+/// The CPU has AVX2; `dims` passes [`lattices`] as a lattice.
 ///
 /// # Panics
 /// If `data` is shorter than `dims`, or a slice of `g` or `out` shorter
@@ -293,13 +333,11 @@ pub(super) unsafe fn sample8(
     );
     let g = g.map(|x| load8(x, 0));
     // SAFETY: data covers the lattice (asserted), which fits (caller).
-    match unsafe { trilinear8(data, dims, g) } {
-        Some(v) => {
-            store8(out, v);
-            true
-        }
-        None => false,
+    let (v, inside) = unsafe { trilinear8(data, dims, g) };
+    if all(inside) {
+        store8(out, v);
     }
+    all(inside)
 }
 
 /// Store eight lanes at the start of `out`.
@@ -312,4 +350,37 @@ fn store8(out: &mut [f32], v: __m256) {
     let s = &mut out[..8];
     // SAFETY: `s` holds eight f32.
     unsafe { _mm256_storeu_ps(s.as_mut_ptr(), v) };
+}
+
+/// The departure points of eight arbitrary points `g` (cell-centre grid
+/// coordinates, unwrapped) traced back through `vel` over `dt_cells =
+/// Δt/Δx` (Euler or RK2) as `semi_lagrangian::departure_point` does, and a
+/// bit mask of the lanes (bit `l` for lane `l`) where a stencil would wrap
+/// or clamp: their points are not the scalar path's and must be redone by
+/// it. The gridless walk's kernel (eq 7.4's `B_k`).
+///
+/// # Safety
+/// The CPU has AVX2 ([`lattices`]) and `vel.dims` passes [`lattices`].
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn points8(
+    vel: Lattices,
+    g: &[Vec3; 8],
+    dt_cells: f32,
+    backtrace: Backtrace,
+) -> ([Vec3; 8], u32) {
+    let c: [__m256; 3] = std::array::from_fn(|a| {
+        let lanes: [f32; 8] = std::array::from_fn(|l| g[l][a]);
+        load8(&lanes, 0)
+    });
+    // SAFETY (both): as this function's.
+    let (u0, ok0) = unsafe { velocity8(vel, c) };
+    let (p, ok1) = unsafe { trace8(vel, c, u0, dt_cells, backtrace) };
+    let mut lanes = [[0.0f32; 8]; 3];
+    for (l, pa) in lanes.iter_mut().zip(p) {
+        store8(l, pa);
+    }
+    let ok = _mm256_and_si256(ok0, ok1);
+    let outside = !_mm256_movemask_ps(_mm256_castsi256_ps(ok)) as u32 & 0xff;
+    let points = std::array::from_fn(|l| Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]));
+    (points, outside)
 }
