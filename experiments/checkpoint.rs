@@ -6,7 +6,9 @@
 //! velocity, and per gas its mass budget and density state (gridded: the
 //! grid; gridless: the history of velocity grids, each grid shared between
 //! gases stored once; SELMA: map, reference density, tracked lattice and
-//! whether `ρ₀` is still composed) — and the [`RunRecord`]: scenario,
+//! whether `ρ₀` is still composed), and the obstacle solves' warm starts
+//! (the exact projection's f64 pressure, QUICK's face potential) — and the
+//! [`RunRecord`]: scenario,
 //! resolved configuration and the output flags. Sources, obstacles,
 //! transform plans and scratch buffers are rebuilt from the configuration.
 //! The step has no random numbers (the seed only places the initial
@@ -17,7 +19,8 @@
 //!
 //! ```text
 //! "SMKCKPT\0" | format u32 | header length u64 | header (JSON)
-//!   | arrays (f32, in the header's order) | FNV-1a 64 of all before
+//!   | arrays (f32, or f64 as two words; in the header's order, sizes in
+//!     4-byte words) | FNV-1a 64 of all before
 //! ```
 //!
 //! The file is written through a uniquely named temporary file in the run
@@ -88,7 +91,7 @@ struct Header {
     gases: Vec<GasHeader>,
     /// Distinct gridless velocity grids stored.
     history: usize,
-    /// Every array's name and f32 count, in file order.
+    /// Every array's name and size in 4-byte words (an f64 is two), in file order.
     arrays: Vec<(String, usize)>,
 }
 
@@ -136,17 +139,65 @@ impl<W: Write> Write for Hashing<W> {
 struct Layout<'a> {
     gases: Vec<GasHeader>,
     /// Every array's name and values, in file order.
-    arrays: Vec<(String, &'a [f32])>,
+    arrays: Vec<(String, Values<'a>)>,
     /// Distinct gridless velocity grids.
     history: usize,
+}
+
+/// An array's values, f32 or f64.
+#[derive(Clone, Copy)]
+enum Values<'a> {
+    F32(&'a [f32]),
+    F64(&'a [f64]),
+}
+
+impl Values<'_> {
+    /// Length in 4-byte words.
+    fn words(&self) -> usize {
+        match self {
+            Values::F32(a) => a.len(),
+            Values::F64(a) => 2 * a.len(),
+        }
+    }
+
+    /// Write the values' little-endian bytes to `w`, in chunks.
+    fn write_to(&self, w: &mut impl Write) -> std::io::Result<()> {
+        let mut buf = Vec::with_capacity(1 << 16);
+        match self {
+            Values::F32(a) => {
+                for chunk in a.chunks(1 << 14) {
+                    buf.clear();
+                    buf.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
+                    w.write_all(&buf)?;
+                }
+            }
+            Values::F64(a) => {
+                for chunk in a.chunks(1 << 13) {
+                    buf.clear();
+                    buf.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
+                    w.write_all(&buf)?;
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The arrays of a state in file order, with the gases' headers; gridless
 /// velocity grids shared between gases are listed once.
 fn layout(state: &SimulationState) -> Layout<'_> {
-    let mut arrays: Vec<(String, &[f32])> = Vec::new();
+    let mut arrays: Vec<(String, Values)> = Vec::new();
     for (a, c) in ["u", "v", "w"].iter().enumerate() {
-        arrays.push((format!("velocity.{c}"), state.velocity.slice(a)));
+        arrays.push((
+            format!("velocity.{c}"),
+            Values::F32(state.velocity.slice(a)),
+        ));
+    }
+    if let Some(p) = &state.obstacle_pressure {
+        arrays.push(("obstacle_pressure".into(), Values::F64(p)));
+    }
+    if let Some(p) = &state.face_potential {
+        arrays.push(("face_potential".into(), Values::F32(p)));
     }
     let mut grids: Vec<&Arc<FaceGrid>> = Vec::new();
     let mut gases = Vec::new();
@@ -159,7 +210,9 @@ fn layout(state: &SimulationState) -> Layout<'_> {
             restarts: 0,
         };
         match density {
-            DensityState::Gridded(d) => arrays.push((format!("gas{n}.density"), d.as_slice())),
+            DensityState::Gridded(d) => {
+                arrays.push((format!("gas{n}.density"), Values::F32(d.as_slice())))
+            }
             DensityState::Gridless { history, centres } => {
                 gas.mode = DensityMode::Gridless;
                 for (u, dt, bt) in history {
@@ -170,23 +223,26 @@ fn layout(state: &SimulationState) -> Layout<'_> {
                     });
                     gas.steps.push((k, dt.to_bits(), *bt));
                 }
-                arrays.push((format!("gas{n}.centres"), centres.as_slice()));
+                arrays.push((format!("gas{n}.centres"), Values::F32(centres.as_slice())));
             }
             DensityState::Selma(s) => {
                 gas.mode = DensityMode::Selma;
                 gas.composes_initial = s.composes_initial;
                 gas.restarts = s.restarts;
-                arrays.push((format!("gas{n}.disp"), s.disp.as_slice()));
-                arrays.push((format!("gas{n}.reference"), s.reference.as_slice()));
-                arrays.push((format!("gas{n}.lattice"), s.lattice.as_slice()));
-                arrays.push((format!("gas{n}.centres"), s.centres.as_slice()));
+                arrays.push((format!("gas{n}.disp"), Values::F32(s.disp.as_slice())));
+                arrays.push((
+                    format!("gas{n}.reference"),
+                    Values::F32(s.reference.as_slice()),
+                ));
+                arrays.push((format!("gas{n}.lattice"), Values::F32(s.lattice.as_slice())));
+                arrays.push((format!("gas{n}.centres"), Values::F32(s.centres.as_slice())));
             }
         }
         gases.push(gas);
     }
     for (k, g) in grids.iter().enumerate() {
         for (a, c) in ["u", "v", "w"].iter().enumerate() {
-            arrays.push((format!("history{k}.{c}"), g.slice(a)));
+            arrays.push((format!("history{k}.{c}"), Values::F32(g.slice(a))));
         }
     }
     Layout {
@@ -211,7 +267,7 @@ pub fn write(dir: &Path, sim: &Simulation, run: &RunRecord) -> Result<()> {
         step: state.step_index,
         gases,
         history,
-        arrays: arrays.iter().map(|(n, a)| (n.clone(), a.len())).collect(),
+        arrays: arrays.iter().map(|(n, a)| (n.clone(), a.words())).collect(),
     };
     let json = serde_json::to_vec(&header)?;
     io::write_atomic(&dir.join(FILE), |w| {
@@ -223,13 +279,8 @@ pub fn write(dir: &Path, sim: &Simulation, run: &RunRecord) -> Result<()> {
         h.write_all(&FORMAT.to_le_bytes())?;
         h.write_all(&(json.len() as u64).to_le_bytes())?;
         h.write_all(&json)?;
-        let mut buf = Vec::with_capacity(1 << 16);
         for (_, a) in &arrays {
-            for chunk in a.chunks(1 << 14) {
-                buf.clear();
-                buf.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
-                h.write_all(&buf)?;
-            }
+            a.write_to(&mut h)?;
         }
         let hash = h.hash;
         w.write_all(&hash.to_le_bytes())?;
@@ -350,6 +401,8 @@ impl Checkpoint {
             step_index: h.step,
             velocity: template.velocity,
             gases: vec![],
+            obstacle_pressure: template.obstacle_pressure,
+            face_potential: template.face_potential,
         };
         let mut gases = Vec::new();
         for (g, (_, density)) in h.gases.iter().zip(template.gases) {
@@ -386,6 +439,12 @@ impl Checkpoint {
             arrays
                 .fill(state.velocity.slice_mut(a))
                 .ok_or_else(misfit)?;
+        }
+        if let Some(p) = &mut state.obstacle_pressure {
+            arrays.fill_f64(p).ok_or_else(misfit)?;
+        }
+        if let Some(p) = &mut state.face_potential {
+            arrays.fill(p).ok_or_else(misfit)?;
         }
         for (_, density) in state.gases.iter_mut() {
             let filled = match density {
@@ -434,6 +493,18 @@ impl<I: Iterator<Item = usize>> Arrays<'_, I> {
         let bytes = self.data.get(self.at..self.at + 4 * n)?;
         for (v, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
             *v = f32::from_le_bytes(b.try_into().expect("4 bytes"));
+        }
+        self.at += 4 * n;
+        Some(())
+    }
+
+    /// Fill `out` with the next array, f64 as two words each; `None` if it
+    /// has another length.
+    fn fill_f64(&mut self, out: &mut [f64]) -> Option<()> {
+        let n = self.sizes.next().filter(|&n| n == 2 * out.len())?;
+        let bytes = self.data.get(self.at..self.at + 4 * n)?;
+        for (v, b) in out.iter_mut().zip(bytes.chunks_exact(8)) {
+            *v = f64::from_le_bytes(b.try_into().expect("8 bytes"));
         }
         self.at += 4 * n;
         Some(())

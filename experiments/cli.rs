@@ -417,25 +417,22 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         Some(0) => {
             return Err(InputError::new("--checkpoint-every is 0; it must be at least 1").into())
         }
-        Some(every) => {
-            sim.check_checkpointable()?;
-            Some(Checkpointing {
-                every,
-                record: RunRecord {
-                    scenario: args.scenario,
-                    config: toml::to_string(config).expect("a configuration serializes to TOML"),
-                    checkpoint_every: every,
-                    vdb: args.vdb,
-                    paraview: args.paraview,
-                    render: args.render.then(|| RenderFlags {
-                        every: args.render_every,
-                        image: args.image.clone(),
-                        march_step: args.march_step,
-                    }),
-                },
-                resumed_from: None,
-            })
-        }
+        Some(every) => Some(Checkpointing {
+            every,
+            record: RunRecord {
+                scenario: args.scenario,
+                config: toml::to_string(config).expect("a configuration serializes to TOML"),
+                checkpoint_every: every,
+                vdb: args.vdb,
+                paraview: args.paraview,
+                render: args.render.then(|| RenderFlags {
+                    every: args.render_every,
+                    image: args.image.clone(),
+                    march_step: args.march_step,
+                }),
+            },
+            resumed_from: None,
+        }),
         None => None,
     };
     for f in &earlier {
@@ -607,7 +604,6 @@ fn resume_config<C: Scenario>(
     };
     let render = frame_render(&flags, s)?;
     let mut sim = config.build()?;
-    sim.check_checkpointable()?;
     let state = checkpoint.state_for(&sim)?;
     sim.restore(state)?;
     let metrics = crate::checkpoint::metrics_upto(dir, step, &run::metric_columns(&sim))?;

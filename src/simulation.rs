@@ -135,6 +135,12 @@ pub struct SimulationState {
     pub velocity: FaceGrid,
     /// Per gas, its mass budget and density state.
     pub gases: Vec<(MassBudget, DensityState)>,
+    /// The obstacle-aware projection's warm start, the last step's pressure
+    /// (exact obstacles only).
+    pub obstacle_pressure: Option<Vec<f64>>,
+    /// QUICK's open-face projection's warm start, the last step's potential
+    /// (QUICK with obstacles only).
+    pub face_potential: Option<Vec<f32>>,
 }
 
 /// Physical and numerical parameters of the step.
@@ -479,12 +485,11 @@ impl Simulation {
         }
     }
 
-    /// What changes as the simulation steps — the step count, the velocity
-    /// and every gas's density state and mass budget — for a checkpoint.
-    /// Everything else (sources, obstacles, transform plans, scratch
-    /// buffers) is rebuilt from the configuration and overwritten before it
-    /// is read, except the warm starts of the obstacle solves, so a run
-    /// with those is refused ([`Self::check_checkpointable`]).
+    /// What changes as the simulation steps — the step count, the velocity,
+    /// every gas's density state and mass budget, and the warm starts of
+    /// the obstacle solves — for a checkpoint. Everything else (sources,
+    /// obstacles, transform plans, scratch buffers) is rebuilt from the
+    /// configuration and overwritten before it is read.
     pub fn state(&self) -> SimulationState {
         SimulationState {
             step_index: self.step_index,
@@ -494,6 +499,11 @@ impl Simulation {
                 .iter()
                 .map(|g| (g.budget, g.model.state()))
                 .collect(),
+            obstacle_pressure: (self.obstacle_projection.as_ref()).map(|c| c.pressure().to_vec()),
+            face_potential: match &self.advector {
+                Advector::Quick { quick, .. } => quick.warm_start().map(<[f32]>::to_vec),
+                Advector::SemiLagrangian { .. } => None,
+            },
         }
     }
 
@@ -512,6 +522,20 @@ impl Simulation {
                 "the state's grid or gases differ from the configuration's",
             ));
         }
+        let misfit =
+            || InputError::new("the state's obstacle solves differ from the configuration's");
+        let pressure_fits = match (&mut self.obstacle_projection, &state.obstacle_pressure) {
+            (Some(c), Some(p)) => c.set_pressure(p),
+            (c, p) => c.is_none() && p.is_none(),
+        };
+        let potential_fits = match (&mut self.advector, &state.face_potential) {
+            (Advector::Quick { quick, .. }, Some(p)) => quick.set_warm_start(p),
+            (Advector::Quick { quick, .. }, None) => quick.warm_start().is_none(),
+            (Advector::SemiLagrangian { .. }, p) => p.is_none(),
+        };
+        if !(pressure_fits && potential_fits) {
+            return Err(misfit());
+        }
         for (gas, (budget, density)) in self.gases.iter_mut().zip(state.gases) {
             gas.model.restore(density)?;
             gas.budget = budget;
@@ -519,25 +543,6 @@ impl Simulation {
         self.velocity = state.velocity;
         self.step_index = state.step_index;
         Ok(())
-    }
-
-    /// Whether [`Self::state`] holds everything that steps on: not with
-    /// obstacles solved by the obstacle-aware projection or QUICK's face
-    /// projection, which warm-start from the last step's pressure.
-    ///
-    /// # Errors
-    /// Naming the solve whose state would be lost.
-    pub fn check_checkpointable(&self) -> Result<(), InputError> {
-        let quick = matches!(self.advector, Advector::Quick { .. });
-        match (&self.boundary, &self.obstacle_projection) {
-            (Some(_), Some(_)) => Err(InputError::new(
-                "checkpoints do not hold the obstacle-aware solve's warm start; run obstacles with --obstacles notes to checkpoint",
-            )),
-            (Some(_), None) if quick => Err(InputError::new(
-                "checkpoints do not hold QUICK's face projection warm start with obstacles; use --advection sl to checkpoint",
-            )),
-            _ => Ok(()),
-        }
     }
 
     /// The obstacles' closed faces. Exact method: surface faces set to zero

@@ -103,6 +103,21 @@ fn max_abs(a: &[f32]) -> f32 {
 }
 
 impl FacePressure {
+    /// The potential kept as the next solve's warm start.
+    pub(crate) fn potential(&self) -> &[f32] {
+        &self.p
+    }
+
+    /// Put back a [`Self::potential`]; `false` (nothing changed) if its
+    /// length differs.
+    pub(crate) fn set_potential(&mut self, p: &[f32]) -> bool {
+        let fits = p.len() == self.p.len();
+        if fits {
+            self.p.copy_from_slice(p);
+        }
+        fits
+    }
+
     /// Solver state for the open faces `open` (upper face of every cell, per axis).
     pub(crate) fn new(lat: &Lattice, open: &[Vec<bool>; 3]) -> Self {
         let n = lat.nx * lat.ny * lat.nz;

@@ -308,6 +308,18 @@ impl Quick {
             .then(|| FacePressure::new(&self.lattice, &self.open));
     }
 
+    /// The open-face projection's warm start, the last step's potential
+    /// (`None` without obstacles).
+    pub fn warm_start(&self) -> Option<&[f32]> {
+        self.pressure.as_ref().map(|p| p.potential())
+    }
+
+    /// Put back a [`Self::warm_start`]; `false` (nothing changed) if there
+    /// are no obstacles or its length differs.
+    pub fn set_warm_start(&mut self, p: &[f32]) -> bool {
+        self.pressure.as_mut().is_some_and(|f| f.set_potential(p))
+    }
+
     /// Conjugate-gradient iterations and relative residual of the last
     /// open-face projection (`None` without obstacles).
     pub fn face_projection_stats(&self) -> Option<(usize, f32)> {

@@ -99,6 +99,16 @@ impl ObstacleProjection {
         &self.p
     }
 
+    /// Put back a [`Self::pressure`] as the next solve's warm start (a
+    /// checkpoint's). `false` (nothing changed) if its length differs.
+    pub fn set_pressure(&mut self, p: &[f64]) -> bool {
+        let fits = p.len() == self.p.len();
+        if fits {
+            self.p.copy_from_slice(p);
+        }
+        fits
+    }
+
     /// Make the fluxes `A u` divergence-free in every wet cell of `faces`:
     /// solve `K p = −D(A u*)` and set `u −= G p` on the open faces. Closed
     /// faces are left alone (see [`OpenFaces::extend`]). `fast` must be the
