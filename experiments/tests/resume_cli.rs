@@ -102,8 +102,13 @@ fn killed_and_resumed(extra: &[&str], check_killed: impl Fn(&Path)) {
         .spawn()
         .unwrap();
     let start = Instant::now();
-    let rows =
-        || std::fs::read_to_string(part.join("metrics.csv")).map_or(0, |t| t.lines().count() - 1);
+    // Whole data rows so far; a file whose header is not yet written has
+    // none (a plain `- 1` wrapped to usize::MAX there and killed the run
+    // before its manifest existed).
+    let rows = || {
+        std::fs::read_to_string(part.join("metrics.csv"))
+            .map_or(0, |t| t.lines().count().saturating_sub(1))
+    };
     while rows() < 6 {
         assert!(
             start.elapsed() < Duration::from_secs(120),
