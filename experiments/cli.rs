@@ -440,17 +440,13 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
             .map_err(|e| anyhow::anyhow!("cannot remove {} to overwrite it: {e}", f.display()))?;
     }
     io::create_output_dir(&out)?;
-    let opts = RunOptions {
-        out: out.clone(),
-        frames: s.frames,
-        save: SaveFrames::Every(s.save_every),
-        progress: !args.quiet,
-        metrics_every: s.metrics_every,
-        sample_res: s.sample_res,
+    let opts = run_options(
+        out.clone(),
+        s,
+        args.quiet,
         render,
-        vdb: args.vdb,
-        paraview: args.paraview,
-    };
+        [args.vdb, args.paraview],
+    );
     let summary = match &checkpoints {
         Some(c) => run::run_checkpointed(&mut sim, &opts, config, s.seed, c)?,
         None => run::run(&mut sim, &opts, config, s.seed)?,
@@ -627,17 +623,13 @@ fn resume_config<C: Scenario>(
         use std::io::Write;
         Ok(w.write_all(metrics.as_bytes())?)
     })?;
-    let opts = RunOptions {
-        out: dir.to_path_buf(),
-        frames: s.frames,
-        save: SaveFrames::Every(s.save_every),
-        progress: !args.quiet,
-        metrics_every: s.metrics_every,
-        sample_res: s.sample_res,
+    let opts = run_options(
+        dir.to_path_buf(),
+        s,
+        args.quiet,
         render,
-        vdb: record.vdb,
-        paraview: record.paraview,
-    };
+        [record.vdb, record.paraview],
+    );
     let checkpoints = Checkpointing {
         every: record.checkpoint_every,
         record: RunRecord {
@@ -840,6 +832,28 @@ fn run_all_experiments(
         anyhow::bail!("experiments failed: {}", failed.join(", "));
     }
     Ok(())
+}
+
+/// What `run` (fresh or resumed) writes into `out`: the solver's frames,
+/// saves and metrics cadence, the frame renders, and `[vdb, paraview]`.
+fn run_options(
+    out: PathBuf,
+    s: &SolverConfig,
+    quiet: bool,
+    render: Option<FrameRender>,
+    [vdb, paraview]: [bool; 2],
+) -> RunOptions {
+    RunOptions {
+        out,
+        frames: s.frames,
+        save: SaveFrames::Every(s.save_every),
+        progress: !quiet,
+        metrics_every: s.metrics_every,
+        sample_res: s.sample_res,
+        render,
+        vdb,
+        paraview,
+    }
 }
 
 /// The renders `smokelab run hot-cold --render [--render-every K]
