@@ -22,6 +22,8 @@
 //!
 //! Parallel over z-slabs with rayon; no per-cell allocation.
 
+use std::ops::Range;
+
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -221,16 +223,15 @@ fn face_sweep<const A: usize>(
         .enumerate()
         .for_each(|(k, slab)| {
             for (j, row) in slab.chunks_exact_mut(dims[0]).enumerate() {
-                let mut i = 0;
-                // Groups of eight faces away from the box's edges (the
-                // kernel's precondition), while they stay inside.
+                // Faces 1 … n_x − 2 in groups of eight (the kernel's
+                // precondition: away from the box's edges), where their
+                // stencils stay inside; the rest one by one.
                 #[cfg(target_arch = "x86_64")]
                 if let Some(lat) = simd
                     .filter(|_| (1..cells[1] - 1).contains(&j) && (1..cells[2] - 1).contains(&k))
                 {
-                    row[0] = scalar([0, j, k]);
-                    i = 1;
-                    while i + 9 <= cells[0] {
+                    let covered = eight_wide(1, cells[0] - 1);
+                    for i in group_starts(covered.clone()) {
                         // SAFETY: AVX2 and lattice sizes checked by
                         // simd::lattices; `data` has A's lattice length
                         // (asserted above); 1 ≤ i, i + 8 ≤ n_x − 1 and j, k
@@ -245,11 +246,14 @@ fn face_sweep<const A: usize>(
                                 }
                             }
                         }
-                        i += 8;
                     }
+                    for i in (0..covered.start).chain(covered.end..row.len()) {
+                        row[i] = scalar([i, j, k]);
+                    }
+                    continue;
                 }
-                for (n, o) in row[i..].iter_mut().enumerate() {
-                    *o = scalar([i + n, j, k]);
+                for (i, o) in row.iter_mut().enumerate() {
+                    *o = scalar([i, j, k]);
                 }
             }
         });
@@ -320,56 +324,85 @@ pub fn advect_fused(
         |points, (k, mut outs)| {
             for j in 0..ny {
                 let row = j * nx..(j + 1) * nx;
-                let mut done = 0;
+                // Cells 1 … in groups of eight while their upper faces are
+                // inside the lattices (`i + 8 < m_x` of u, `j + 1 < m_y` of
+                // v, `k + 1 < m_z` of w), where the RK2 midpoints' stencils
+                // stay inside; the rest one by one.
+                let mut covered = 0..0;
                 #[cfg(target_arch = "x86_64")]
                 if let Some(lat) = simd.filter(|l| j + 1 < l.dims[1][1] && k + 1 < l.dims[2][2]) {
-                    while done + 8 < lat.dims[0][0] && done + 8 <= nx {
+                    covered = eight_wide(1, (lat.dims[0][0] - 1).min(nx));
+                    for i in group_starts(covered.clone()) {
                         let [px, py, pz] = &mut *points;
-                        let lanes = [&mut px[done..], &mut py[done..], &mut pz[done..]];
+                        let lanes = [&mut px[i..], &mut py[i..], &mut pz[i..]];
                         // SAFETY: AVX2 and lattice sizes checked by
                         // simd::lattices; the cells' upper faces are inside
-                        // (done + 8 < m_x of u, j + 1 < m_y of v, k + 1 <
-                        // m_z of w), and every lane slice holds eight.
+                        // (as above), and every lane slice holds eight.
                         let traced =
-                            unsafe { simd::cells8(lat, [done, j, k], dt_cells, backtrace, lanes) };
+                            unsafe { simd::cells8(lat, [i, j, k], dt_cells, backtrace, lanes) };
                         if !traced {
-                            for i in done..done + 8 {
+                            for i in i..i + 8 {
                                 set_point(points, i, scalar_point([i, j, k]));
                             }
                         }
-                        done += 8;
                     }
                 }
-                for i in done..nx {
+                for i in (0..covered.start).chain(covered.end..nx) {
                     set_point(points, i, scalar_point([i, j, k]));
                 }
                 for ((data, wrap), out) in src.iter().zip(outs.iter_mut()) {
                     let out = &mut out[row.clone()];
-                    let mut done = 0;
+                    let scalar = |i| Stencil::new(point(points, i), cells, *wrap).apply(data);
+                    // Cells 1 … n_x − 2 in groups of eight where their
+                    // stencils lie inside the grid (the edge cells' rarely
+                    // do); the rest one by one.
+                    let mut covered = 0..0;
                     #[cfg(target_arch = "x86_64")]
                     if simd.is_some() {
-                        while done + 8 <= nx {
+                        covered = eight_wide(1, nx - 1);
+                        for i in group_starts(covered.clone()) {
                             let [px, py, pz] = &*points;
-                            let g = [&px[done..], &py[done..], &pz[done..]];
-                            // SAFETY: AVX2 checked by simd_lattices; the
+                            let g = [&px[i..], &py[i..], &pz[i..]];
+                            // SAFETY: AVX2 checked by simd::lattices; the
                             // cell grid is smaller than w's lattice, which fits.
-                            let sampled =
-                                unsafe { simd::sample8(data, cells, g, &mut out[done..]) };
+                            let sampled = unsafe { simd::sample8(data, cells, g, &mut out[i..]) };
                             if !sampled {
-                                for (i, o) in out.iter_mut().enumerate().skip(done).take(8) {
-                                    *o = Stencil::new(point(points, i), cells, *wrap).apply(data);
+                                for (n, o) in out[i..i + 8].iter_mut().enumerate() {
+                                    *o = scalar(i + n);
                                 }
                             }
-                            done += 8;
                         }
                     }
-                    for (i, o) in out.iter_mut().enumerate().skip(done) {
-                        *o = Stencil::new(point(points, i), cells, *wrap).apply(data);
+                    for i in (0..covered.start).chain(covered.end..nx) {
+                        out[i] = scalar(i);
                     }
                 }
             }
         },
     );
+}
+
+/// `first..end` if it holds a group of eight, else `0..0`: the points of a
+/// row that an eight-wide sweep covers.
+#[cfg(target_arch = "x86_64")]
+fn eight_wide(first: usize, end: usize) -> Range<usize> {
+    if end >= first + 8 {
+        first..end
+    } else {
+        0..0
+    }
+}
+
+/// Starts of the eight-wide groups covering `range` ([`eight_wide`]): every
+/// eighth point from its start, the last group moved back to end at
+/// `range.end`, overlapping its predecessor (a point's value does not
+/// depend on its group, so the overlap writes the same bits twice).
+#[cfg(target_arch = "x86_64")]
+fn group_starts(range: Range<usize>) -> impl Iterator<Item = usize> {
+    let last = range.end.saturating_sub(8);
+    (range.start..last)
+        .step_by(8)
+        .chain((range.len() >= 8).then_some(last))
 }
 
 /// Point `i` of a row's departure points held as `[x, y, z]` lanes.
