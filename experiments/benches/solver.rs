@@ -1,4 +1,5 @@
-//! Solver benchmarks: one hot/cold step at 64³ and 128³, the MAC pressure
+//! Solver benchmarks: one hot/cold step at 64³ and 128³ (RK2, the default,
+//! and Euler, the peers' backtrace), the MAC pressure
 //! projection alone and semi-Lagrangian advection alone. Planning and warm-up are outside the
 //! timed region. Run: `cargo bench --bench solver`.
 
@@ -10,11 +11,13 @@ use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
 
-/// A hot/cold simulation at `res`³ stepped until the gases move.
-fn warmed(res: usize) -> smokelab::simulation::Simulation {
+/// A hot/cold simulation at `res`³ with the `backtrace`, stepped until the
+/// gases move.
+fn warmed(res: usize, backtrace: Backtrace) -> smokelab::simulation::Simulation {
     let config = HotColdConfig {
         solver: SolverConfig {
             res,
+            backtrace,
             ..SolverConfig::default()
         },
         ..Default::default()
@@ -30,9 +33,14 @@ fn benches(c: &mut Criterion) {
     let mut g = c.benchmark_group("hot_cold");
     g.sample_size(10);
     for res in [64usize, 128] {
-        let mut sim = warmed(res);
+        let mut sim = warmed(res, Backtrace::Euler);
         let cells = sim.domain().len() as u64;
         g.throughput(Throughput::Elements(cells));
+        // The peers' backtrace (`../shared/peers/taichi_advect.py` is Euler).
+        g.bench_function(BenchmarkId::new("step_euler", res), |b| {
+            b.iter(|| sim.step())
+        });
+        let mut sim = warmed(res, Backtrace::Rk2);
         g.bench_function(BenchmarkId::new("step", res), |b| b.iter(|| sim.step()));
         let mut pressure = PressureSolver::new(*sim.domain(), BoxKind::Periodic);
         let mut vel = sim.velocity.clone();
