@@ -15,6 +15,7 @@
 //! | `advect(f, velocity, dt)` — `velocity` a cache | `f ∘` the library's departure map ([`departure_point`]), the gridless density of §6.2 |
 //! | `advect(cache, velocity, dt)` | [`Departures::trace`] + [`interpolate_scalar`]: the semi-Lagrangian sweep of `Simulation::advect`, departures shared by the caches of one step |
 //! | `advect(velocity, velocity, dt)` | [`advect_faces`]: the velocity's own step in `Simulation::advect` |
+//! | `advection(region, "quick")` | later `advect`s of caches by [`Quick`] (`prepare` once per velocity and Δt, `advect_scalar` with the ULTIMATE limiter, `advect_faces`): `Advector::advect`'s QUICK step, `run --advection quick`; `"sl"` returns to the notes' semi-Lagrangian `advect` |
 //! | `fftdivfree(velocity, region)` | [`PressureSolver::project`], `Simulation::project` (eq 6.3; cosine transforms in a closed box) |
 //! | `diffuse(velocity, region, nu, dt)` | [`PressureSolver::diffuse`]: the exact viscous step `Simulation::project` takes before the projection (`run --nu`) |
 //! | `scalarcache(region, name)`, `vectorcache(region)` | empty grids ([`ScalarGrid::zeros`], [`FaceGrid::zeros`]) |
@@ -35,7 +36,8 @@ use std::sync::{Arc, Weak};
 use glam::Vec3;
 use rhai::{Array, Engine, FLOAT, INT};
 use smokelab::advection::{
-    advect_faces, departure_point, interpolate_scalar, Backtrace, Departures,
+    advect_faces, departure_point, interpolate_scalar, Backtrace, Departures, Limiter, Quick,
+    QuickOptions,
 };
 use smokelab::density::probe::cell_averages;
 use smokelab::domain::Domain;
@@ -114,6 +116,65 @@ fn advect_cache(c: &ScalarGrid, u: &Arc<FaceGrid>, dt: f32) -> ScalarGrid {
         interpolate_scalar(c, dep, &mut out);
         out
     })
+}
+
+/// The script's QUICK advector, once `advection(region, "quick")` chose it,
+/// and the velocity and Δt its step is prepared for (weakly, as [`TRACED`]).
+struct QuickState {
+    domain: Domain,
+    quick: Quick,
+    prepared: Option<(Weak<FaceGrid>, f32)>,
+}
+
+thread_local! {
+    /// `None`: caches advect semi-Lagrangian (the notes' `advect`).
+    static QUICK: RefCell<Option<QuickState>> = const { RefCell::new(None) };
+}
+
+/// `f(quick)` with QUICK prepared for `u` over `dt` (`Quick::prepare`, once
+/// per velocity and Δt, as `Advector::advect` does once per step); `None`
+/// when the script advects semi-Lagrangian.
+fn with_quick<T>(
+    u: &Arc<FaceGrid>,
+    dt: f32,
+    f: impl FnOnce(&mut Quick) -> T,
+) -> Option<Fallible<T>> {
+    QUICK.with(|q| {
+        let mut q = q.borrow_mut();
+        let state = q.as_mut()?;
+        if &state.domain != u.domain() {
+            return Some(Err("advect: the velocity is not on the QUICK region".into()));
+        }
+        let ready = matches!(&state.prepared, Some((w, d)) if *d == dt
+            && w.upgrade().is_some_and(|v| Arc::ptr_eq(&v, u)));
+        if !ready {
+            state.prepared = None;
+            if let Err(e) = state.quick.prepare(u, dt) {
+                return Some(Err(format!("advect: {e}").into()));
+            }
+            state.prepared = Some((Arc::downgrade(u), dt));
+        }
+        Some(Ok(f(&mut state.quick)))
+    })
+}
+
+/// `advection(region, scheme)`: `"sl"` (the notes' semi-Lagrangian
+/// `advect`) or `"quick"` (QUICK finite volumes, `run --advection quick`
+/// with its defaults: CFL sub-steps, the ULTIMATE limiter on densities)
+/// for every later `advect` of a cache.
+fn set_advection(region: Region, scheme: &str) -> Fallible<()> {
+    let state = match scheme {
+        "sl" => None,
+        "quick" if region.kind == BoxKind::Periodic => Some(QuickState {
+            domain: region.domain,
+            quick: Quick::new(region.domain, QuickOptions::default()),
+            prepared: None,
+        }),
+        "quick" => return Err("advection: QUICK is periodic; the region is a closed box".into()),
+        other => return Err(format!("advection: `{other}`; expected \"sl\" or \"quick\"").into()),
+    };
+    QUICK.with(|q| *q.borrow_mut() = state);
+    Ok(())
 }
 
 /// The scalar fields of a script array, or an error naming the wrong element.
@@ -259,17 +320,35 @@ pub fn register(engine: &mut Engine) {
                 )
                 .into());
             }
+            let mut out = ScalarGrid::zeros(*c.grid.domain()).with_wrap(c.grid.wrap());
+            let grid = match with_quick(&u.0, dt as f32, |q| {
+                q.advect_scalar(&c.grid, &mut out, Limiter::Ultimate)
+            }) {
+                Some(done) => done.map(|()| out)?,
+                None => advect_cache(&c.grid, &u.0, dt as f32),
+            };
             Ok(ScalarCache {
-                grid: Arc::new(advect_cache(&c.grid, &u.0, dt as f32)),
+                grid: Arc::new(grid),
                 name: c.name,
             })
         },
     );
-    engine.register_fn("advect", |v: VectorCache, u: VectorCache, dt: FLOAT| {
-        let mut out = FaceGrid::zeros(*u.0.domain(), u.0.kind());
-        advect_faces(&v.0, &u.0, dt as f32, Backtrace::default(), &mut out);
-        VectorCache(Arc::new(out))
-    });
+    engine.register_fn(
+        "advect",
+        |v: VectorCache, u: VectorCache, dt: FLOAT| -> Fallible<VectorCache> {
+            if v.0.domain() != u.0.domain() || v.0.kind() != u.0.kind() {
+                return Err("advect: the two velocities are on different grids".into());
+            }
+            let mut out = FaceGrid::zeros(*u.0.domain(), u.0.kind());
+            if let Some(done) = with_quick(&u.0, dt as f32, |q| q.advect_faces(&v.0, &mut out)) {
+                done?;
+            } else {
+                advect_faces(&v.0, &u.0, dt as f32, Backtrace::default(), &mut out);
+            }
+            Ok(VectorCache(Arc::new(out)))
+        },
+    );
+    engine.register_fn("advection", set_advection);
     engine.register_fn(
         "fftdivfree",
         |v: VectorCache, region: Region| -> Fallible<VectorCache> {
