@@ -2,7 +2,7 @@
 //!
 //! | script | library |
 //! |---|---|
-//! | `domain(res, size)` | [`Domain::cube`], the periodic box `[0, size]³` |
+//! | `domain(res, size)`, `domain(res, size, "closed")` | [`Domain::cube`], the box `[0, size]³`, periodic or closed ([`BoxKind`]) |
 //! | `vector(x, y, z)`, `scalarfield(c)`, `vectorfield(v)` | constants ([`ops::constant`], [`ops::constant_vector`]) |
 //! | `identity()` | [`ops::identity`] |
 //! | `mask(f)` | [`ops::mask`] |
@@ -15,9 +15,13 @@
 //! | `advect(f, velocity, dt)` — `velocity` a cache | `f ∘` the library's departure map ([`departure_point`]), the gridless density of §6.2 |
 //! | `advect(cache, velocity, dt)` | [`Departures::trace`] + [`interpolate_scalar`]: the semi-Lagrangian sweep of `Simulation::advect`, departures shared by the caches of one step |
 //! | `advect(velocity, velocity, dt)` | [`advect_faces`]: the velocity's own step in `Simulation::advect` |
-//! | `fftdivfree(velocity, region)` | [`PressureSolver::project`], `Simulation::project` (eq 6.3) |
+//! | `advection(region, "quick")` | later `advect`s of caches by [`Quick`] (`prepare` once per velocity and Δt, `advect_scalar` with the ULTIMATE limiter, `advect_faces`): `Advector::advect`'s QUICK step, `run --advection quick`; `"sl"` returns to the notes' semi-Lagrangian `advect` |
+//! | `fftdivfree(velocity, region)` | [`PressureSolver::project`], `Simulation::project` (eq 6.3; cosine transforms in a closed box) |
+//! | `diffuse(velocity, region, nu, dt)` | [`PressureSolver::diffuse`]: the exact viscous step `Simulation::project` takes before the projection (`run --nu`) |
 //! | `scalarcache(region, name)`, `vectorcache(region)` | empty grids ([`ScalarGrid::zeros`], [`FaceGrid::zeros`]) |
 //! | `cachewrite(cache, f)`, `cacheread(cache)` | [`ScalarGrid::from_field`] / [`FaceGrid::from_field`], and the grid as a field (trilinear) |
+//! | `cacheaverage(cache, f)` | [`cell_averages`] over 2×2×2 sub-cells: SELMA's re-anchoring resample (`density::selma`) |
+//! | `mapcache(region)`, `advect(map, velocity, dt)`, `cacheread(map)`, `deformation(map)` | SELMA's gridded map (eq 8.8), see [`super::map`] |
 //! | `perlin(seed)`, `fractalsum(n, octaves, jump, rough)` | [`Perlin`], [`cloud::fractal_sum`] (eq 3.6) |
 //! | `noiselayers(count, noise, scale, freq, fjump, rough)` | [`cloud::noise_layers`] (§3.6) |
 //! | `cumulo(base, layers, h, iterations)` | [`cloud::cumulo`] (eq 3.5), uncached |
@@ -32,8 +36,10 @@ use std::sync::{Arc, Weak};
 use glam::Vec3;
 use rhai::{Array, Engine, FLOAT, INT};
 use smokelab::advection::{
-    advect_faces, departure_point, interpolate_scalar, Backtrace, Departures,
+    advect_faces, departure_point, interpolate_scalar, Backtrace, Departures, Limiter, Quick,
+    QuickOptions,
 };
+use smokelab::density::probe::cell_averages;
 use smokelab::domain::Domain;
 use smokelab::field::algebra as fa;
 use smokelab::field::{ops, Scalar, Vector, VectorField};
@@ -83,11 +89,10 @@ thread_local! {
     static TRACED: RefCell<Traced> = const { RefCell::new(None) };
 }
 
-/// `ρ(x_d)`: the cache interpolated at the departure points of the cell
-/// centres through `u` over `dt` — [`Departures::trace`] and
-/// [`interpolate_scalar`], the arithmetic of the library's sweep — tracing
-/// only when `u` or `dt` changed since the last call.
-fn advect_cache(c: &ScalarGrid, u: &Arc<FaceGrid>, dt: f32) -> ScalarGrid {
+/// `f(departures)`: the departure points of the cell centres through `u`
+/// over `dt` ([`Departures::trace`], the library's sweep), traced only when
+/// `u` or `dt` changed since the last call.
+pub fn with_departures<T>(u: &Arc<FaceGrid>, dt: f32, f: impl FnOnce(&Departures) -> T) -> T {
     TRACED.with(|t| {
         let mut t = t.borrow_mut();
         let hit = matches!(&*t, Some((w, d, _)) if *d == dt
@@ -98,10 +103,78 @@ fn advect_cache(c: &ScalarGrid, u: &Arc<FaceGrid>, dt: f32) -> ScalarGrid {
             *t = Some((Arc::downgrade(u), dt, dep));
         }
         let (_, _, dep) = t.as_ref().expect("traced above");
+        f(dep)
+    })
+}
+
+/// `ρ(x_d)`: the cache interpolated at the shared departure points
+/// ([`with_departures`]) by [`interpolate_scalar`], the arithmetic of the
+/// library's sweep.
+fn advect_cache(c: &ScalarGrid, u: &Arc<FaceGrid>, dt: f32) -> ScalarGrid {
+    with_departures(u, dt, |dep| {
         let mut out = ScalarGrid::zeros(*c.domain()).with_wrap(c.wrap());
         interpolate_scalar(c, dep, &mut out);
         out
     })
+}
+
+/// The script's QUICK advector, once `advection(region, "quick")` chose it,
+/// and the velocity and Δt its step is prepared for (weakly, as [`TRACED`]).
+struct QuickState {
+    domain: Domain,
+    quick: Quick,
+    prepared: Option<(Weak<FaceGrid>, f32)>,
+}
+
+thread_local! {
+    /// `None`: caches advect semi-Lagrangian (the notes' `advect`).
+    static QUICK: RefCell<Option<QuickState>> = const { RefCell::new(None) };
+}
+
+/// `f(quick)` with QUICK prepared for `u` over `dt` (`Quick::prepare`, once
+/// per velocity and Δt, as `Advector::advect` does once per step); `None`
+/// when the script advects semi-Lagrangian.
+fn with_quick<T>(
+    u: &Arc<FaceGrid>,
+    dt: f32,
+    f: impl FnOnce(&mut Quick) -> T,
+) -> Option<Fallible<T>> {
+    QUICK.with(|q| {
+        let mut q = q.borrow_mut();
+        let state = q.as_mut()?;
+        if &state.domain != u.domain() {
+            return Some(Err("advect: the velocity is not on the QUICK region".into()));
+        }
+        let ready = matches!(&state.prepared, Some((w, d)) if *d == dt
+            && w.upgrade().is_some_and(|v| Arc::ptr_eq(&v, u)));
+        if !ready {
+            state.prepared = None;
+            if let Err(e) = state.quick.prepare(u, dt) {
+                return Some(Err(format!("advect: {e}").into()));
+            }
+            state.prepared = Some((Arc::downgrade(u), dt));
+        }
+        Some(Ok(f(&mut state.quick)))
+    })
+}
+
+/// `advection(region, scheme)`: `"sl"` (the notes' semi-Lagrangian
+/// `advect`) or `"quick"` (QUICK finite volumes, `run --advection quick`
+/// with its defaults: CFL sub-steps, the ULTIMATE limiter on densities)
+/// for every later `advect` of a cache.
+fn set_advection(region: Region, scheme: &str) -> Fallible<()> {
+    let state = match scheme {
+        "sl" => None,
+        "quick" if region.kind == BoxKind::Periodic => Some(QuickState {
+            domain: region.domain,
+            quick: Quick::new(region.domain, QuickOptions::default()),
+            prepared: None,
+        }),
+        "quick" => return Err("advection: QUICK is periodic; the region is a closed box".into()),
+        other => return Err(format!("advection: `{other}`; expected \"sl\" or \"quick\"").into()),
+    };
+    QUICK.with(|q| *q.borrow_mut() = state);
+    Ok(())
 }
 
 /// The scalar fields of a script array, or an error naming the wrong element.
@@ -135,14 +208,38 @@ fn count(what: &str, n: INT) -> Fallible<usize> {
     usize::try_from(n).map_err(|_| format!("{what} is {n}; it must be at least 0").into())
 }
 
+/// `domain(res, size, box)`: the cube `[0, size]³` of `res`³ cells, its
+/// faces `"periodic"` or `"closed"` (`smokelab run --box`).
+fn region(res: INT, size: FLOAT, kind: &str) -> Fallible<Region> {
+    let res = usize::try_from(res).map_err(|_| format!("domain: res is {res}"))?;
+    let d = Domain::cube(res, size as f32).map_err(|e| e.to_string())?;
+    let kind = match kind {
+        "periodic" => BoxKind::Periodic,
+        "closed" => BoxKind::Closed,
+        other => {
+            return Err(
+                format!("domain: box `{other}`; expected \"periodic\" or \"closed\"").into(),
+            )
+        }
+    };
+    Ok(Region::new(d, kind))
+}
+
+/// Refuse a velocity that is not on `region`'s grid and box.
+fn on_region(what: &str, v: &VectorCache, region: &Region) -> Fallible<()> {
+    if v.0.domain() != &region.domain || v.0.kind() != region.kind {
+        return Err(format!("{what}: the velocity is not on this region").into());
+    }
+    Ok(())
+}
+
 /// Register the notes' functions.
 pub fn register(engine: &mut Engine) {
     let sf = ScalarF::new;
-    engine.register_fn("domain", |res: INT, size: FLOAT| -> Fallible<Region> {
-        let res = usize::try_from(res).map_err(|_| format!("domain: res is {res}"))?;
-        let d = Domain::cube(res, size as f32).map_err(|e| e.to_string())?;
-        Ok(Region::new(d))
+    engine.register_fn("domain", |res: INT, size: FLOAT| {
+        region(res, size, "periodic")
     });
+    engine.register_fn("domain", region);
     engine.register_fn("vector", |x: FLOAT, y: FLOAT, z: FLOAT| {
         V3(Vec3::new(x as f32, y as f32, z as f32))
     });
@@ -223,25 +320,54 @@ pub fn register(engine: &mut Engine) {
                 )
                 .into());
             }
+            let mut out = ScalarGrid::zeros(*c.grid.domain()).with_wrap(c.grid.wrap());
+            let grid = match with_quick(&u.0, dt as f32, |q| {
+                q.advect_scalar(&c.grid, &mut out, Limiter::Ultimate)
+            }) {
+                Some(done) => done.map(|()| out)?,
+                None => advect_cache(&c.grid, &u.0, dt as f32),
+            };
             Ok(ScalarCache {
-                grid: Arc::new(advect_cache(&c.grid, &u.0, dt as f32)),
+                grid: Arc::new(grid),
                 name: c.name,
             })
         },
     );
-    engine.register_fn("advect", |v: VectorCache, u: VectorCache, dt: FLOAT| {
-        let mut out = FaceGrid::zeros(*u.0.domain(), u.0.kind());
-        advect_faces(&v.0, &u.0, dt as f32, Backtrace::default(), &mut out);
-        VectorCache(Arc::new(out))
-    });
+    engine.register_fn(
+        "advect",
+        |v: VectorCache, u: VectorCache, dt: FLOAT| -> Fallible<VectorCache> {
+            if v.0.domain() != u.0.domain() || v.0.kind() != u.0.kind() {
+                return Err("advect: the two velocities are on different grids".into());
+            }
+            let mut out = FaceGrid::zeros(*u.0.domain(), u.0.kind());
+            if let Some(done) = with_quick(&u.0, dt as f32, |q| q.advect_faces(&v.0, &mut out)) {
+                done?;
+            } else {
+                advect_faces(&v.0, &u.0, dt as f32, Backtrace::default(), &mut out);
+            }
+            Ok(VectorCache(Arc::new(out)))
+        },
+    );
+    engine.register_fn("advection", set_advection);
     engine.register_fn(
         "fftdivfree",
         |v: VectorCache, region: Region| -> Fallible<VectorCache> {
-            if v.0.domain() != &region.domain {
-                return Err("fftdivfree: the velocity is not on this region".into());
-            }
+            on_region("fftdivfree", &v, &region)?;
             let mut out = (*v.0).clone();
             region.solver.borrow_mut().project(&mut out);
+            Ok(VectorCache(Arc::new(out)))
+        },
+    );
+    engine.register_fn(
+        "diffuse",
+        |v: VectorCache, region: Region, nu: FLOAT, dt: FLOAT| -> Fallible<VectorCache> {
+            on_region("diffuse", &v, &region)?;
+            let mut out = (*v.0).clone();
+            region
+                .solver
+                .borrow_mut()
+                .diffuse(&mut out, nu as f32, dt as f32)
+                .map_err(|e| format!("diffuse: {e}"))?;
             Ok(VectorCache(Arc::new(out)))
         },
     );
@@ -249,16 +375,21 @@ pub fn register(engine: &mut Engine) {
     // caches
     engine.register_fn("scalarcache", |r: Region, name: &str| ScalarCache {
         name: name.to_string(),
-        grid: Arc::new(ScalarGrid::zeros(r.domain)),
+        grid: Arc::new(ScalarGrid::zeros(r.domain).with_wrap(r.kind.wrap())),
     });
     engine.register_fn("vectorcache", |r: Region| {
-        VectorCache(Arc::new(FaceGrid::zeros(r.domain, BoxKind::Periodic)))
+        VectorCache(Arc::new(FaceGrid::zeros(r.domain, r.kind)))
     });
     engine.register_fn("cachewrite", |c: &mut ScalarCache, f: ScalarF| {
-        c.grid = Arc::new(ScalarGrid::from_field(*c.grid.domain(), &*f.field));
+        let g = ScalarGrid::from_field(*c.grid.domain(), &*f.field);
+        c.grid = Arc::new(g.with_wrap(c.grid.wrap()));
     });
     engine.register_fn("cachewrite", |c: &mut VectorCache, v: VectorF| {
         c.0 = Arc::new(FaceGrid::from_field(*c.0.domain(), c.0.kind(), &*v.0));
+    });
+    engine.register_fn("cacheaverage", |c: &mut ScalarCache, f: ScalarF| {
+        let g = cell_averages(&*f.field, c.grid.domain(), 2);
+        c.grid = Arc::new(g.with_wrap(c.grid.wrap()));
     });
     engine.register_fn("cacheread", move |c: ScalarCache| {
         let f: Scalar = c.grid;

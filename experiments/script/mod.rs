@@ -5,7 +5,8 @@
 //! nodes — and calls native verbs on grids (`advect` of a cache,
 //! `fftdivfree`, `cachewrite`); every evaluation is native and batched, the
 //! interpreter never runs per point. Types and operators: [`types`]; the
-//! notes' functions: [`functions`]; files: [`output`].
+//! notes' functions: [`functions`]; SELMA's map cache: [`map`]; files:
+//! [`output`].
 //!
 //! **Why Rhai.** It is pure Rust (no C library, nothing to install beside
 //! the crate), sandboxed by default (no file, network or process access
@@ -26,6 +27,7 @@
 //! are reported as `FILE:LINE:COL: message`.
 
 pub mod functions;
+pub mod map;
 pub mod output;
 pub mod types;
 
@@ -155,6 +157,7 @@ fn engine(recorder: &Rc<RefCell<Recorder>>, params: &Rc<RefCell<Params>>) -> Eng
     let mut engine = Engine::new();
     types::register(&mut engine);
     functions::register(&mut engine);
+    map::register(&mut engine);
     output::register(&mut engine, recorder);
     let p = params.clone();
     engine.register_fn("param", move |name: &str, default: Dynamic| {

@@ -5,11 +5,18 @@
 //!   `smokelab run` writes them ([`crate::run::write_frame`]: `<gas>_NNNN.npy`,
 //!   `u/v/w_NNNN.npy`, `vel_NNNN.npy`, `preview_NNNN.png`; the first gas is
 //!   drawn red, the others blue);
-//! - `record(frame, dt, velocity, [gases…])` — one row of `metrics.csv`:
-//!   `step, time, max_u, cfl, div_rms, div_max` as the run's columns, per
-//!   gas `<g>_grid_mass` (`Σ ρ Δx³` on the grid; the run's `<g>_mass` is
-//!   measured at 2× and is not computed here), `mirror_error` with two gases,
-//!   and `t_step`, the wall seconds since the previous row;
+//! - `record(frame, dt, velocity, [gases…])` — one row of `metrics.csv`
+//!   with the columns of `smokelab run` that a script has the data for, by
+//!   the same functions and in the run's order ([`columns`]): the velocity's
+//!   measures every step; the fine density measures (`<g>_mass, <g>_max,
+//!   <g>_grad, <g>_subgrid` at 2×, [`DensityProbe`]) and `ke_top_octave`
+//!   every [`FINE_EVERY`] steps, `NaN` between —
+//!   `record(frame, dt, velocity, [gases…], fine)` says when instead (a
+//!   script passes `frame == frames` to measure the last, as `run` does);
+//!   then per gas `<g>_grid_mass` (`Σ ρ Δx³` on the grid, every step) and
+//!   `t_step`, the wall seconds since the previous row. (The run's
+//!   `injected`, `lost`, budget, `density_bytes`, `substeps` and stage
+//!   times have no script counterpart.)
 //! - `writenpy(name, cache)` or `writenpy(name, field, region)` — one
 //!   `name.npy` (a field is sampled at the region's cell centres);
 //! - `manifest.json` at the end ([`crate::script::run`]).
@@ -24,20 +31,86 @@ use std::time::Instant;
 
 use glam::Vec3;
 use rhai::{Array, Engine, FLOAT, INT};
+use serde::Serialize;
+use smokelab::density::probe::{DensityMeasures, DensityProbe};
+use smokelab::domain::Domain;
 use smokelab::field::ops;
-use smokelab::grid::ScalarGrid;
+use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::io;
-use smokelab::metrics;
+use smokelab::metrics::{self, SpectralShare};
 use smokelab::simulation::{Gas, Simulation, StepParams};
 
 use super::types::{Fallible, Region, ScalarCache, ScalarF, VectorCache};
 use crate::table::Log;
+
+/// The steps whose fine density measures `record(frame, dt, velocity,
+/// gases)` takes: `smokelab run`'s default `--metrics-every`.
+pub const FINE_EVERY: usize = 10;
+
+/// One cell of a `metrics.csv` row: an integer or a number, written as
+/// `smokelab run` writes its column.
+#[derive(Serialize)]
+#[serde(untagged)]
+enum Cell {
+    Int(usize),
+    F32(f32),
+    F64(f64),
+}
+
+/// The column names of a script's `metrics.csv` for `gases`: `smokelab
+/// run`'s columns that a script has the data for, in the run's order
+/// ([`crate::run::metric_columns`]), then the script's own: per gas
+/// `<g>_grid_mass` (`Σ ρ Δx³` on the grid, every step) and `t_step`.
+pub fn columns(gases: &[String]) -> Vec<String> {
+    let mut c: Vec<String> = [
+        "step",
+        "time",
+        "max_u",
+        "cfl",
+        "div_rms",
+        "div_max",
+        "div_interp_rms",
+        "div_interp_max",
+        "ke_top_octave",
+    ]
+    .map(String::from)
+    .to_vec();
+    for g in gases {
+        c.extend(["mass", "max", "grad", "subgrid"].map(|m| format!("{g}_{m}")));
+    }
+    if gases.len() == 2 {
+        c.push("mirror_error".into());
+    }
+    c.push("vel_mirror_error".into());
+    c.extend(gases.iter().map(|g| format!("{g}_grid_mass")));
+    c.push("t_step".into());
+    c
+}
+
+/// The measuring state of `record`: the run's probe points, spectrum and
+/// fine density probe, on the first recorded grid.
+struct Probes {
+    points: Vec<Vec3>,
+    spectrum: SpectralShare,
+    density: DensityProbe,
+}
+
+impl Probes {
+    fn new(domain: Domain) -> Self {
+        Self {
+            points: metrics::probe_points(&domain, crate::run::PROBE_POINTS, 1),
+            spectrum: SpectralShare::new(domain.dims),
+            density: DensityProbe::new(domain),
+        }
+    }
+}
 
 /// The output folder and what has been written to it.
 pub struct Recorder {
     out: PathBuf,
     /// A simulation holding the script's state, for the run's writers.
     shell: Option<Simulation>,
+    probes: Option<Probes>,
     log: Option<Log>,
     last_row: Instant,
     /// Frames whose volumes were written.
@@ -89,6 +162,7 @@ impl Recorder {
         Self {
             out,
             shell: None,
+            probes: None,
             log: None,
             last_row: Instant::now(),
             saved_frames: vec![],
@@ -169,11 +243,21 @@ impl Recorder {
                     gravity: Vec3::ZERO,
                     backtrace: Default::default(),
                 };
-                self.shell = Some(Simulation::new(domain, params, gases));
+                let kind = velocity.0.kind();
+                self.shell = Some(Simulation::new(domain, params, gases).with_box(kind));
             }
         }
         let sim = self.shell.as_mut().expect("built above");
-        sim.velocity = (*velocity.0).clone();
+        if sim.velocity.kind() == velocity.0.kind() {
+            // In place: no allocation per recorded step.
+            for axis in 0..3 {
+                sim.velocity
+                    .slice_mut(axis)
+                    .copy_from_slice(velocity.0.slice(axis));
+            }
+        } else {
+            sim.velocity = (*velocity.0).clone();
+        }
         for (g, c) in sim.gases.iter_mut().zip(caches) {
             let rho: &mut ScalarGrid = g.model.gridded_mut().expect("shell gases are gridded");
             rho.as_slice_mut().copy_from_slice(c.grid.as_slice());
@@ -191,35 +275,60 @@ impl Recorder {
         Ok(())
     }
 
-    fn record(&mut self, frame: INT, dt: FLOAT, velocity: &VectorCache, g: &Array) -> Fallible<()> {
+    fn record(
+        &mut self,
+        frame: INT,
+        dt: FLOAT,
+        velocity: &VectorCache,
+        g: &Array,
+        fine: bool,
+    ) -> Fallible<()> {
+        let step = usize::try_from(frame).map_err(|_| format!("record: frame is {frame}"))?;
         let caches = gases(g, "record")?;
         let out = self.out.join("metrics.csv");
         let elapsed = self.last_row.elapsed().as_secs_f64();
-        let sim = self.load(velocity, &caches, "record")?;
+        self.load(velocity, &caches, "record")?;
+        let sim = self.shell.as_ref().expect("loaded above");
+        let domain = *sim.domain();
+        let probes = self.probes.get_or_insert_with(|| Probes::new(domain));
         let v = &sim.velocity;
         let max_u = v.max_norm();
         let div = metrics::divergence_stats(v);
-        let cell = sim.domain().cell;
+        let interp = metrics::interpolant_divergence(v, &domain, &probes.points);
+        let ke_top_octave = if fine && v.kind() == BoxKind::Periodic {
+            metrics::top_octave_share(&mut probes.spectrum, v)
+        } else {
+            f64::NAN
+        };
         let mut row = vec![
-            frame as f64,
-            frame as f64 * dt,
-            max_u as f64,
-            (max_u as f64) * dt / cell as f64,
-            div.rms as f64,
-            div.max as f64,
+            Cell::Int(step),
+            Cell::F32(step as f32 * dt as f32),
+            Cell::F32(max_u),
+            Cell::F32(max_u * dt as f32 / domain.cell),
+            Cell::F32(div.rms),
+            Cell::F32(div.max),
+            Cell::F32(interp.rms),
+            Cell::F32(interp.max),
+            Cell::F64(ke_top_octave),
         ];
-        row.extend(sim.gases.iter().map(|g| g.density().total()));
-        let mut columns: Vec<String> = ["step", "time", "max_u", "cfl", "div_rms", "div_max"]
-            .map(String::from)
-            .to_vec();
-        columns.extend(sim.gases.iter().map(|g| format!("{}_grid_mass", g.name)));
-        if let [a, b] = &sim.gases[..] {
-            row.push(metrics::mirror_error(a.density(), b.density()) as f64);
-            columns.push("mirror_error".into());
+        for gas in &sim.gases {
+            let m = fine.then(|| probes.density.measure(&gas.model));
+            let value = |f: fn(&DensityMeasures) -> f64| Cell::F64(m.as_ref().map_or(f64::NAN, f));
+            row.extend([
+                value(|m| m.mass),
+                value(|m| m.max),
+                value(|m| m.mean_gradient),
+                value(|m| m.subgrid_fraction),
+            ]);
         }
-        row.push(elapsed);
-        columns.push("t_step".into());
+        if let [a, b] = &sim.gases[..] {
+            row.push(Cell::F32(metrics::mirror_error(a.density(), b.density())));
+        }
+        row.push(Cell::F32(metrics::velocity_mirror_error(v)));
+        row.extend(sim.gases.iter().map(|g| Cell::F64(g.density().total())));
+        row.push(Cell::F64(elapsed));
         if self.log.is_none() {
+            let columns = columns(&self.gas_names());
             self.log = Some(Log::create(out, &columns).map_err(|e| format!("record: {e:#}"))?);
         }
         let log = self.log.as_mut().expect("created above");
@@ -247,7 +356,15 @@ pub fn register(engine: &mut Engine, recorder: &Rc<RefCell<Recorder>>) {
     engine.register_fn(
         "record",
         move |frame: INT, dt: FLOAT, v: VectorCache, g: Array| {
-            r.borrow_mut().record(frame, dt, &v, &g)
+            r.borrow_mut()
+                .record(frame, dt, &v, &g, frame % FINE_EVERY as INT == 0)
+        },
+    );
+    let r = recorder.clone();
+    engine.register_fn(
+        "record",
+        move |frame: INT, dt: FLOAT, v: VectorCache, g: Array, fine: bool| {
+            r.borrow_mut().record(frame, dt, &v, &g, fine)
         },
     );
     let r = recorder.clone();

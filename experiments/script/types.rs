@@ -7,7 +7,8 @@
 //! | `matrixfield` | [`Matrix`] | a 3 × 3 matrix function (`grad(grad(ℓ))`) |
 //! | `scalarcache` | a named [`ScalarGrid`] at the cell centres | `scalarcache hotCache(region)` |
 //! | `vectorcache` | a [`FaceGrid`], the MAC velocity | the gridded velocity `fftdivfree` returns |
-//! | `domain` | a [`Domain`], its pressure solver and backtrace | `region` |
+//! | `mapcache` | [`super::map::MapCache`], the displacement `X − x` at the cell centres | SELMA's `XmapCache` (ch. 8) |
+//! | `domain` | a [`Domain`], periodic or closed, its pressure solver and backtrace | `region` |
 //! | `vector` | a constant [`Vec3`] | `vector hotpoint = …` |
 //!
 //! Every operator builds a node of the library's field graph (or, for
@@ -42,7 +43,7 @@ use smokelab::density::probe::cell_averages;
 use smokelab::domain::Domain;
 use smokelab::field::algebra::{self as fa, Matrix};
 use smokelab::field::{ops, Scalar, Vector, VectorField};
-use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid};
+use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid, Wrap};
 use smokelab::pressure::PressureSolver;
 use smokelab::simulation::SOURCE_REFINE;
 
@@ -107,12 +108,15 @@ pub struct ScalarCache {
 #[derive(Clone)]
 pub struct VectorCache(pub Arc<FaceGrid>);
 
-/// The notes' `region`: a periodic box, its pressure solver (planned once)
-/// and the backtrace of the semi-Lagrangian `advect`.
+/// The notes' `region`: a periodic or closed box, its pressure solver
+/// (planned once) and the backtrace of the semi-Lagrangian `advect`.
 #[derive(Clone)]
 pub struct Region {
     /// The box.
     pub domain: Domain,
+    /// Periodic, or closed (walls with no normal flow, densities read
+    /// clamped to the box) — `smokelab run --box`.
+    pub kind: BoxKind,
     /// How `advect` traces departure points on a velocity cache.
     pub backtrace: Backtrace,
     /// The exact pressure solve of `fftdivfree`.
@@ -120,12 +124,13 @@ pub struct Region {
 }
 
 impl Region {
-    /// A periodic region over `domain`, tracing with RK2 (the run's default).
-    pub fn new(domain: Domain) -> Self {
+    /// A region of `kind` over `domain`, tracing with RK2 (the run's default).
+    pub fn new(domain: Domain, kind: BoxKind) -> Self {
         Self {
             domain,
+            kind,
             backtrace: Backtrace::default(),
-            solver: Rc::new(RefCell::new(PressureSolver::new(domain, BoxKind::Periodic))),
+            solver: Rc::new(RefCell::new(PressureSolver::new(domain, kind))),
         }
     }
 }
@@ -193,10 +198,15 @@ fn zip_faces(mut a: VectorCache, b: &FaceGrid, op: fn(f32, f32) -> f32) -> Falli
 /// of the two cells it separates — the buoyancy of eq 6.5 exactly as
 /// [`smokelab::simulation::Simulation::add_buoyancy`] forms it
 /// (`Δt g_a · ½(b[f − e_a] + b[f])`), so `velocity + dt*gravity*(cold − hot)`
-/// is bit for bit the library's `u −= Δt g⃗ (hot − cold)`.
+/// is bit for bit the library's `u −= Δt g⃗ (hot − cold)`. In a closed box
+/// (a cache read clamped) the faces on the walls stay zero, as the library's.
 pub fn force_on_faces(k: Vec3, c: &ScalarGrid) -> VectorCache {
     let d = *c.domain();
-    let mut out = FaceGrid::zeros(d, BoxKind::Periodic);
+    let kind = match c.wrap() {
+        Wrap::Periodic => BoxKind::Periodic,
+        Wrap::Clamped => BoxKind::Closed,
+    };
+    let mut out = FaceGrid::zeros(d, kind);
     let [nx, ny, _] = d.dims;
     let cell = |c: [usize; 3]| (c[2] * ny + c[1]) * nx + c[0];
     let data = c.as_slice();
@@ -211,14 +221,16 @@ pub fn force_on_faces(k: Vec3, c: &ScalarGrid) -> VectorCache {
             .for_each(|(kk, slab)| {
                 for j in 0..dims[1] {
                     for i in 0..dims[0] {
-                        let (mut below, above) = ([i, j, kk], [i, j, kk]);
+                        let (mut below, mut above) = ([i, j, kk], [i, j, kk]);
                         below[a] = if below[a] == 0 { n - 1 } else { below[a] - 1 };
+                        above[a] = above[a].min(n - 1);
                         slab[j * dims[0] + i] =
                             k[a] * 0.5 * (data[cell(below)] + data[cell(above)]);
                     }
                 }
             });
     }
+    out.zero_walls();
     VectorCache(Arc::new(out))
 }
 
