@@ -40,11 +40,12 @@
 //! centres, least so where the flow stagnates against an obstacle: there
 //! the plain walks from the layer under the slab of `slab-box` come to rest
 //! beside the source instead of in it, and 20 % of the gas was lost by step
-//! 200 (32³, SL; 99.9 % kept with the factor). Without obstacles the plain
+//! 200 (32³, SL; 98.4 % kept with the factor). Without obstacles the plain
 //! chain keeps its injection within 2 % (`tests/density.rs`) and is left
 //! as the notes have it. The positions are walked as without the factor
-//! (the AVX2 kernel included); the factor is scalar, seven velocity samples
-//! per point and step.
+//! (the AVX2 kernel included); the factor is scalar: the midpoint velocity
+//! and the interpolant's divergence there
+//! ([`crate::grid::face::FaceSampler::divergence_at`]) per point and step.
 //!
 //! Cost: memory grows by one velocity grid per step, and so does the cost of
 //! every query — including the buoyancy term, which evaluates the density at
@@ -112,12 +113,6 @@ impl PastStep {
     }
 }
 
-/// Half-width, in cells, of the central differences of
-/// [`PastStep::volume_factor`]: each velocity component is linear along its
-/// own axis between face planes, so the difference is exact except within
-/// this distance of a face plane.
-const DIV_H: f32 = 1.0 / 64.0;
-
 impl PastStep {
     /// The volume factor `j = det ∂B/∂x` of this step's backward map at
     /// grid point `g`, from the divergence of the velocity interpolant at
@@ -141,13 +136,7 @@ impl PastStep {
             Backtrace::Euler => g,
             Backtrace::Rk2 | Backtrace::Rk3 => g - 0.5 * dt_cells * s.at(g),
         };
-        let mut div = 0.0;
-        for a in 0..3 {
-            let mut e = Vec3::ZERO;
-            e[a] = DIV_H;
-            div += s.at(mid + e)[a] - s.at(mid - e)[a];
-        }
-        let a = (dt_cells * div / (2.0 * DIV_H)).clamp(-1.0, 1.0);
+        let a = (dt_cells * s.divergence_at(mid)).clamp(-1.0, 1.0);
         (1.0 - 0.5 * a) / (1.0 + 0.5 * a)
     }
 }
