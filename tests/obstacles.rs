@@ -124,8 +124,10 @@ fn slab_box(
         div: 0.0,
     };
     for step in 1..=steps {
+        // The step evaluates gridless and SELMA densities at the cell
+        // centres after advecting them (the buoyancy's input): they are
+        // current.
         sim.try_step().unwrap();
-        sim.evaluate_densities();
         let b = sim.boundary.as_ref().unwrap();
         let leak = b.leak(&sim.velocity, &[sim.gases[0].density()]);
         run.iterations = run
@@ -187,14 +189,12 @@ fn slab_box_keeps_its_gas_with_exact_obstacles() {
     );
 }
 
-/// SELMA and gridless densities in the slab box with exact obstacles (SL
-/// velocity). SELMA, its map stopped at the walls, stays within 90–106 % of
-/// the injected gas at every 25th of 200 steps (93–97 % measured); without
-/// the stop it gains (127 %). Gridless falls short of the 95 % asked in
-/// issue 15: 73–99 % measured, 80 % at step 200; over 100 steps it stays
-/// above 70 % (with walks stopped at the walls it fell to 62 %).
+/// SELMA density in the slab box with exact obstacles (SL velocity): its
+/// map stopped at the walls, it stays within 90–106 % of the injected gas at
+/// every 25th of 200 steps (93–97 % measured); without the stop it gains
+/// (127 %).
 #[test]
-fn slab_box_selma_and_gridless_with_exact_obstacles() {
+fn slab_box_selma_with_exact_obstacles() {
     let selma = slab_box(
         32,
         200,
@@ -209,9 +209,20 @@ fn slab_box_selma_and_gridless_with_exact_obstacles() {
     let (lo, hi) = selma.retained_range;
     assert!(lo >= 0.90 && hi <= 1.06, "SELMA retained {lo}–{hi}");
     assert_eq!(selma.flux, 0.0);
+}
+
+/// Gridless density in the slab box with exact obstacles (SL velocity),
+/// its walks weighted by the volume factor of the backward map
+/// (`GridlessField`, issue 15): at step 200 it keeps ≥ 95 % of the
+/// injected gas (measured 0.984; 0.80 without the volume factor). On the
+/// way it swings as the plume reaches the slab and spills round it,
+/// measured 0.831–1.132 at every 25th step (without: 0.73–0.99), asserted
+/// within 0.80–1.16.
+#[test]
+fn slab_box_gridless_with_exact_obstacles() {
     let gridless = slab_box(
         32,
-        100,
+        200,
         Scheme::Sl,
         ObstacleMethod::Exact,
         DensityMode::Gridless,
@@ -220,8 +231,14 @@ fn slab_box_selma_and_gridless_with_exact_obstacles() {
         "gridless: retained {:.4}, range {:?}",
         gridless.retained, gridless.retained_range
     );
+    assert!(
+        gridless.retained >= 0.95,
+        "gridless retained {}",
+        gridless.retained
+    );
     let (lo, hi) = gridless.retained_range;
-    assert!(lo >= 0.70 && hi <= 1.06, "gridless retained {lo}–{hi}");
+    assert!(lo >= 0.80 && hi <= 1.16, "gridless retained {lo}–{hi}");
+    assert_eq!(gridless.flux, 0.0);
 }
 
 /// The CG iterations at 64³ stay under the bound measured (README,

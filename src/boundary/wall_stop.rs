@@ -19,7 +19,8 @@
 //! injected): SELMA keeps 95.1 % with the stop and gains to 127 % without
 //! it. Gridless walks and gridded backtraces are not stopped: a stopped
 //! gridless walk loses more (62 % against 94 % at step 100,
-//! [`crate::density::GridlessField::set_walls`]), and a gridded density
+//! [`crate::density::GridlessField::set_walls`]; gridless walks keep their
+//! gas by weighting with their volume instead), and a gridded density
 //! reading the zeros of the dry cells keeps 103 %.
 
 use glam::Vec3;

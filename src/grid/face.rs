@@ -129,6 +129,21 @@ impl<'a> FaceSampler<'a> {
         )
     }
 
+    /// The divergence `∂u/∂x + ∂v/∂y + ∂w/∂z` of [`Self::at`]'s
+    /// interpolant at cell-centre grid coordinates `g`, per cell (divide by
+    /// Δx for world units): each component's trilinear differentiated along
+    /// its own axis ([`Stencil::derivative`]). Zero at cell centres of a
+    /// projected velocity, not between them.
+    pub fn divergence_at(&self, g: Vec3) -> f32 {
+        (0..3)
+            .map(|a| {
+                let mut p = g;
+                p[a] += 0.5;
+                Stencil::derivative(p, self.dims[a], self.wrap, a).apply(self.data[a])
+            })
+            .sum()
+    }
+
     /// `data`, laid out like component `a`'s lattice, interpolated at
     /// cell-centre grid coordinates `g`.
     ///
@@ -780,6 +795,31 @@ mod tests {
         assert!((0..3).all(|a| p.component(a).dim() == (6, 4, 5)));
         assert_eq!(g.face_position(0, 0, 0, 0), Vec3::new(0.0, 0.25, 0.25));
         assert_eq!(g.face_position(2, 1, 2, 3), Vec3::new(0.75, 1.25, 1.5));
+    }
+
+    #[test]
+    fn divergence_at_differentiates_the_interpolant() {
+        // u = (x(1 + y), y, 0): trilinear reproduces each component on its
+        // lattice, so the interpolant's divergence is exactly
+        // (1 + y) + 1 per unit length, Δx times that per cell.
+        struct Field;
+        impl VectorField for Field {
+            fn eval(&self, p: Vec3) -> Vec3 {
+                Vec3::new(p.x * (1.0 + p.y), p.y, 0.0)
+            }
+        }
+        let d = Domain::new(Vec3::ZERO, 0.5, [8, 8, 8]).unwrap();
+        let g = FaceGrid::from_field(d, BoxKind::Closed, &Field);
+        let s = g.sampler();
+        for p in [
+            Vec3::new(2.3, 4.7, 3.1),
+            Vec3::new(5.5, 1.25, 6.0),
+            Vec3::new(3.0, 3.0, 3.0),
+        ] {
+            let want = d.cell * (2.0 + d.world_of(p).y);
+            let got = s.divergence_at(p);
+            assert!((got - want).abs() < 1e-5, "at {p}: {got} against {want}");
+        }
     }
 
     #[test]

@@ -73,13 +73,40 @@ impl Stencil {
     /// The stencil of continuous grid coordinates `g` on a grid of `dims = [nx, ny, nz]`.
     #[inline(always)]
     pub fn new(g: Vec3, dims: [usize; 3], wrap: Wrap) -> Self {
+        Self::weighted(g, dims, wrap, None)
+    }
+
+    /// The stencil of `∂q/∂g_axis`, the derivative of the trilinear
+    /// interpolant at `g` along `axis` (per grid spacing): [`Self::new`]'s
+    /// corners with the weights `(1 − t, t)` along `axis` replaced by
+    /// `(−1, 1)` — or `(0, 0)` where a clamped coordinate lies outside the
+    /// grid, where the clamped interpolant is constant. On a face plane
+    /// between two cells it is the upper cell's.
+    #[inline(always)]
+    pub fn derivative(g: Vec3, dims: [usize; 3], wrap: Wrap, axis: usize) -> Self {
+        Self::weighted(g, dims, wrap, Some(axis))
+    }
+
+    /// [`Self::new`], or [`Self::derivative`] along `derivative`.
+    #[inline(always)]
+    fn weighted(g: Vec3, dims: [usize; 3], wrap: Wrap, derivative: Option<usize>) -> Self {
         let (x0, x1, tx) = axis(g.x, dims[0], wrap);
         let (y0, y1, ty) = axis(g.y, dims[1], wrap);
         let (z0, z1, tz) = axis(g.z, dims[2], wrap);
+        let (mut sx, mut sy, mut sz) = (1.0 - tx, 1.0 - ty, 1.0 - tz);
+        let (mut tx, mut ty, mut tz) = (tx, ty, tz);
+        if let Some(a) = derivative {
+            let outside = wrap == Wrap::Clamped && !(0.0..=(dims[a] - 1) as f32).contains(&g[a]);
+            let (s, t) = if outside { (0.0, 0.0) } else { (-1.0, 1.0) };
+            match a {
+                0 => (sx, tx) = (s, t),
+                1 => (sy, ty) = (s, t),
+                _ => (sz, tz) = (s, t),
+            }
+        }
         let (nx, ny) = (dims[0], dims[1]);
         let row = |y: usize, z: usize| (z * ny + y) * nx;
         let (r00, r10, r01, r11) = (row(y0, z0), row(y1, z0), row(y0, z1), row(y1, z1));
-        let (sx, sy, sz) = (1.0 - tx, 1.0 - ty, 1.0 - tz);
         Self {
             cells: nx * ny * dims[2],
             index: [
