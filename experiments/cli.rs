@@ -326,6 +326,9 @@ pub struct ExperimentArgs {
     /// Hide progress bars.
     #[arg(long)]
     pub quiet: bool,
+    /// Experiment P-1: also run the peer scripts (Taichi, pyFFTW) with this Python.
+    #[arg(long, value_name = "PYTHON")]
+    pub peers: Option<PathBuf>,
     /// Write into `results/` even from a build of a dirty tree (committed
     /// results must come from a clean commit, recorded in their manifests).
     #[arg(long)]
@@ -726,6 +729,13 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     } else {
         registry::Size::Default
     };
+    if args.peers.is_some() && id != crate::ep_1_perf::EXPERIMENT.id {
+        return Err(InputError::new(format!(
+            "--peers is for experiment {} only",
+            crate::ep_1_perf::EXPERIMENT.id
+        ))
+        .into());
+    }
     if id == "all" {
         let parent = args.out.clone().unwrap_or_else(|| PathBuf::from("results"));
         io::check_output_dir(&parent)?;
@@ -745,7 +755,10 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
         progress: !args.quiet,
     };
     let start = std::time::Instant::now();
-    (exp.run)(&ctx)?;
+    match &args.peers {
+        Some(python) => crate::ep_1_perf::run_with_peers(&ctx, Some(python))?,
+        None => (exp.run)(&ctx)?,
+    }
     println!(
         "experiment {} ({}) finished in {:.1} s; wrote {}",
         exp.id,

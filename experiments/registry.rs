@@ -81,6 +81,7 @@ pub const ALL: &[Experiment] = &[
     crate::en_3_simulation_noise_2d::EXPERIMENT,
     crate::en_4_artist_spline::EXPERIMENT,
     crate::ec_1_convergence::EXPERIMENT,
+    crate::ep_1_perf::EXPERIMENT,
 ];
 
 /// The ids of all experiments.

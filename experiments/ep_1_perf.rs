@@ -1,0 +1,831 @@
+//! # P-1 — step time against resolution, threads, stages and the floor
+//!
+//! Issue 16's performance experiment. A hot/cold step (gridded, SL RK2,
+//! inviscid, every default but the resolution) at 32³ … 256³:
+//!
+//! - **time and cells/s**: the median wall time of `Simulation::step` over
+//!   a few steps after a warm-up, on a 2-thread rayon pool (`pool.install`),
+//!   and the fitted exponent `b` of `time ∝ cells^b` (least squares on
+//!   `log t` against `log cells`, `smokelab::fit`);
+//! - **threads**: the same steps on a 1-thread pool, from the same state,
+//!   and the speed-up `t₁ / t₂`. The two fields after the steps must be
+//!   bitwise equal at every resolution (the experiment fails otherwise);
+//! - **stages**: the median of each stage's wall seconds that the step
+//!   records (`Simulation::times`: advect, density, force, project);
+//! - **the floor**: one real 3D FFT pair of the same size — the faster of a
+//!   plain f32 pair (realfft r2c along x, rustfft along y and z, the inverse
+//!   back, [`FftPair`]) and the solver's own planned f64 pair
+//!   (`PressureSolver::solve_poisson`) — plus one bandwidth-bound pass over
+//!   the fused advection's fields (five f32 arrays of the cells read and
+//!   five written: the three velocity components and the two gases),
+//!   measured as five parallel copies; and the ratio step ÷ floor (issue
+//!   16's target ≤ 2 at 128³);
+//! - **peers** (`--peers PYTHON`): `taichi_advect.py N 2 f32` and
+//!   `fft_py.py N 2` from `../shared/peers/` (or `$SMOKELAB_PEERS_DIR`) at
+//!   the same sizes in the same run, each right after smokelab's at that
+//!   size; the composite peer step is Taichi's
+//!   fused advection of 5 fields (Euler backtrace) plus three pyFFTW f32
+//!   pairs, compared with smokelab's step with the same Euler backtrace
+//!   (also measured, 2 threads). Without the flag the peer columns are
+//!   absent and the manifest says so.
+//!
+//! Every measurement of one step round — 2-thread RK2, 1-thread RK2,
+//! 2-thread Euler, FFT pairs, bandwidth pass — is interleaved, so a busy
+//! machine slows all of them alike; the ratios are the result, the
+//! absolute times depend on the load (`/proc/loadavg` before and after is
+//! in the manifest). Only the step is timed: the run driver's metrics and
+//! outputs are not part of `Simulation::step`, and the setup of each
+//! resolution (the sources' cell averages, the FFT plans; slow at 256³) is
+//! timed apart as `setup_s`.
+//!
+//! Run: `smokelab experiment P-1 [--peers PYTHON]` (2 warm-up and 4 timed
+//! steps per resolution, about 2–3 minutes on 2 busy cores, a minute of it
+//! the 256³ setup; the peers add a few minutes; `--full` 10 and 15 steps;
+//! `--smoke` 16³ and 32³, 1 and 3). Writes `results/perf/`: `data.csv`
+//! (one row per resolution), `time.png` (step time against cells, log-log,
+//! with the fit, the floor and the peer), `threads.png` (speed-up),
+//! `stages.png` (each stage's share of the step), `table.md` (the table
+//! for the README and the paper), `manifest.json`.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{bail, Context as _, Result};
+use rayon::prelude::*;
+use realfft::num_complex::Complex32;
+use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
+use rustfft::{Fft, FftPlanner};
+
+use crate::plot::{Annotation, LegendPosition, Plot, Series, Style};
+use crate::registry::{Context, Experiment, Size};
+use crate::table::write_columns;
+use smokelab::advection::Backtrace;
+use smokelab::error::InputError;
+use smokelab::fit::linear_fit;
+use smokelab::grid::{BoxKind, ScalarGrid};
+use smokelab::io::{self, manifest::Manifest};
+use smokelab::pressure::PressureSolver;
+use smokelab::scenario::hot_cold::HotColdConfig;
+use smokelab::scenario::{Scenario, SolverConfig};
+use smokelab::simulation::Simulation;
+
+/// Registry entry.
+pub const EXPERIMENT: Experiment = Experiment {
+    id: "P-1",
+    folder: "perf",
+    reproduces: "issue 16 performance",
+    title: "hot/cold step time 32³…256³: cells/s, fitted exponent, 1 vs 2 threads, stages, FFT floor (--peers PYTHON: Taichi + pyFFTW)",
+    cost: "~3 min",
+    run,
+};
+
+/// Resolutions, warm-up steps and timed steps of a run size.
+fn plan(size: Size) -> (Vec<usize>, usize, usize) {
+    match size {
+        Size::Smoke => (vec![16, 32], 1, 3),
+        Size::Default => (vec![32, 64, 128, 256], 2, 4),
+        Size::Full => (vec![32, 64, 128, 256], 10, 15),
+    }
+}
+
+fn run(ctx: &Context) -> Result<()> {
+    run_with_peers(ctx, None)
+}
+
+/// The experiment, with the peers run by `python` when given.
+///
+/// # Errors
+/// A `python` that cannot be run or lacks taichi or pyfftw, or peer
+/// scripts that cannot be found ([`InputError`], exit 2); a 1- and a
+/// 2-thread step that differ in a bit; failed writes.
+pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
+    let start = Instant::now();
+    let peers = python.map(Peers::new).transpose()?;
+    let (sizes, warm, steps) = plan(ctx.size);
+    let load_before = loadavg();
+    let pools = [1usize, 2].map(|n| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .expect("a thread pool")
+    });
+    let bar = crate::progress::bar(sizes.len() as u64, "resolutions", ctx.progress);
+    let mut rows = vec![];
+    let mut peer_rows = peers.as_ref().map(|_| vec![]);
+    for &res in &sizes {
+        rows.push(measure(res, warm, steps, &pools)?);
+        // Each size's peers right after smokelab's, under the same load.
+        if let (Some(p), Some(r)) = (&peers, &mut peer_rows) {
+            r.extend(p.measure(&[res])?);
+        }
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let load_after = loadavg();
+    io::create_output_dir(&ctx.out)?;
+    let fit = linear_fit(
+        &rows
+            .iter()
+            .map(|r| ((r.cells as f64).ln(), r.step_ms.ln()))
+            .collect::<Vec<_>>(),
+    );
+    write_data(&ctx.out, &rows, peer_rows.as_deref())?;
+    plot(&ctx.out, &rows, peer_rows.as_deref(), fit.map(|f| f.slope))?;
+    let md = table(&rows, peer_rows.as_deref(), fit.map(|f| f.slope));
+    io::write_atomic(&ctx.out.join("table.md"), |w| {
+        Ok(std::io::Write::write_all(w, md.as_bytes())?)
+    })?;
+    let extra = serde_json::json!({
+        "resolutions": sizes,
+        "warm_up_steps": warm,
+        "timed_steps": steps,
+        "threads": [1, 2],
+        "time_exponent": fit.map(|f| f.slope),
+        "load_before": load_before,
+        "load_after": load_after,
+        "bitwise_equal_1_vs_2_threads": rows.iter().all(|r| r.bitwise_equal),
+        "timed": "Simulation::step only (advect, density, force, project); the run driver's metrics and outputs are not in it; setup_s (sources' cell averages, plans) is timed apart",
+        "floor": "min(f32 realfft+rustfft pair, the solver's f64 pair) + five f32 array copies (the fused sweep's 5 fields read and written)",
+        "peers": match (&peers, &peer_rows) {
+            (Some(p), Some(r)) => serde_json::json!({
+                "python": p.python,
+                "scripts": p.dir,
+                "composite": "taichi_advect.py advect5 (Euler) + 3 × pyfftw float32 pair",
+                "rows": r.iter().map(|x| serde_json::json!({
+                    "res": x.res, "taichi_advect_ms": x.taichi_ms, "pyfftw_pair_ms": x.pyfftw_ms
+                })).collect::<Vec<_>>(),
+            }),
+            _ => serde_json::json!("absent: run with --peers PYTHON"),
+        },
+    });
+    let config = config(*sizes.last().expect("at least one resolution"));
+    io::write_json(
+        &ctx.out.join("manifest.json"),
+        &Manifest::new(config, 0, start.elapsed().as_secs_f64(), extra),
+    )
+}
+
+/// The hot/cold configuration at `res`, every other key its default.
+fn config(res: usize) -> HotColdConfig {
+    HotColdConfig {
+        solver: SolverConfig {
+            res,
+            ..SolverConfig::default()
+        },
+        ..Default::default()
+    }
+}
+
+/// `/proc/loadavg` (1, 5, 15 minutes, runnable/total, last pid), or a note.
+fn loadavg() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.trim().to_string())
+        .unwrap_or_else(|_| "unavailable".into())
+}
+
+/// What one resolution measured (times in ms, medians over the timed steps).
+struct Row {
+    res: usize,
+    cells: usize,
+    setup_s: f64,
+    step_ms: f64,
+    step_1t_ms: f64,
+    step_euler_ms: f64,
+    advect_ms: f64,
+    density_ms: f64,
+    force_ms: f64,
+    project_ms: f64,
+    fft_f32_ms: f64,
+    fft_solver_ms: f64,
+    bandwidth_ms: f64,
+    bitwise_equal: bool,
+}
+
+impl Row {
+    /// One FFT pair (the faster) plus the bandwidth pass.
+    fn floor_ms(&self) -> f64 {
+        self.fft_f32_ms.min(self.fft_solver_ms) + self.bandwidth_ms
+    }
+
+    fn mcells_per_s(&self) -> f64 {
+        self.cells as f64 / (self.step_ms * 1e3)
+    }
+
+    fn speedup(&self) -> f64 {
+        self.step_1t_ms / self.step_ms
+    }
+}
+
+/// Median of `v` (mean of the middle two for an even count).
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Milliseconds `f` takes.
+fn ms(f: impl FnOnce()) -> f64 {
+    let t = Instant::now();
+    f();
+    t.elapsed().as_secs_f64() * 1e3
+}
+
+/// Whether two simulations hold the same velocity and densities, bit for bit.
+fn same_bits(a: &Simulation, b: &Simulation) -> bool {
+    let eq = |x: &[f32], y: &[f32]| {
+        x.len() == y.len() && x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
+    };
+    (0..3).all(|ax| eq(a.velocity.slice(ax), b.velocity.slice(ax)))
+        && a.gases.len() == b.gases.len()
+        && a.gases
+            .iter()
+            .zip(&b.gases)
+            .all(|(g, h)| eq(g.density().as_slice(), h.density().as_slice()))
+}
+
+/// Set up `res`³, warm up on 2 threads, then time `steps` interleaved
+/// rounds: RK2 on 2 and on 1 thread, Euler on 2, both FFT pairs and the
+/// bandwidth pass on 2.
+fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]) -> Result<Row> {
+    let [one, two] = pools;
+    let cfg = config(res);
+    let t = Instant::now();
+    let mut base = cfg.build()?;
+    let setup_s = t.elapsed().as_secs_f64();
+    two.install(|| (0..warm).for_each(|_| base.step()));
+    let mut euler = base.clone();
+    euler.params.backtrace = Backtrace::Euler;
+    let mut euler = euler.with_advection(&cfg.solver.advection_options());
+    let mut single = base.clone();
+    let mut double = base;
+    let domain = *double.domain();
+    let mut pair = FftPair::new(res);
+    let mut solver = PressureSolver::new(domain, BoxKind::Periodic);
+    let rhs = ScalarGrid::zeros(domain);
+    let mut rhs = rhs;
+    rhs.as_slice_mut()
+        .iter_mut()
+        .enumerate()
+        .for_each(|(i, v)| *v = ((i * 7919) % 1009) as f32 / 1009.0 - 0.5);
+    let mut p = ScalarGrid::zeros(domain);
+    let mut pass = Bandwidth::new(domain.len());
+    let mut t = [(); 6].map(|_| Vec::with_capacity(steps));
+    let mut stages = [(); 4].map(|_| Vec::with_capacity(steps));
+    for _ in 0..steps {
+        t[0].push(ms(|| two.install(|| double.step())));
+        let s = double.times;
+        for (v, x) in stages
+            .iter_mut()
+            .zip([s.advect, s.density, s.force, s.project])
+        {
+            v.push(x * 1e3);
+        }
+        t[1].push(ms(|| one.install(|| single.step())));
+        t[2].push(ms(|| two.install(|| euler.step())));
+        t[3].push(ms(|| two.install(|| pair.run())));
+        t[4].push(ms(|| two.install(|| solver.solve_poisson(&rhs, &mut p))));
+        t[5].push(ms(|| two.install(|| pass.run())));
+    }
+    let bitwise_equal = same_bits(&single, &double);
+    if !bitwise_equal {
+        bail!(
+            "{res}³: the 1-thread and 2-thread steps differ in some bit after {warm}+{steps} steps"
+        );
+    }
+    let [step, step_1t, step_euler, fft_f32, fft_solver, bandwidth] = t.map(median);
+    let [advect, density, force, project] = stages.map(median);
+    Ok(Row {
+        res,
+        cells: domain.len(),
+        setup_s,
+        step_ms: step,
+        step_1t_ms: step_1t,
+        step_euler_ms: step_euler,
+        advect_ms: advect,
+        density_ms: density,
+        force_ms: force,
+        project_ms: project,
+        fft_f32_ms: fft_f32,
+        fft_solver_ms: fft_solver,
+        bandwidth_ms: bandwidth,
+        bitwise_equal,
+    })
+}
+
+/// One forward and one inverse real 3D FFT of an `n³` f32 array: r2c along
+/// x (realfft), complex transforms along y and z (rustfft), then the
+/// inverses in reverse order; unnormalised, as the peers' pairs. y lines
+/// are transposed within a z-slab, z lines through one blocked transpose
+/// of the spectrum.
+struct FftPair {
+    n: usize,
+    r2c: Arc<dyn RealToComplex<f32>>,
+    c2r: Arc<dyn ComplexToReal<f32>>,
+    fwd: Arc<dyn Fft<f32>>,
+    inv: Arc<dyn Fft<f32>>,
+    input: Vec<f32>,
+    output: Vec<f32>,
+    /// `[z][y][kx]`, `kx < n/2 + 1`.
+    spectrum: Vec<Complex32>,
+    /// `[(y, kx)][z]`.
+    lines: Vec<Complex32>,
+}
+
+/// z lines per task of the blocked transposes.
+const BLOCK: usize = 16;
+
+impl FftPair {
+    fn new(n: usize) -> Self {
+        let mut real = RealFftPlanner::<f32>::new();
+        let mut complex = FftPlanner::<f32>::new();
+        let h = n / 2 + 1;
+        Self {
+            n,
+            r2c: real.plan_fft_forward(n),
+            c2r: real.plan_fft_inverse(n),
+            fwd: complex.plan_fft_forward(n),
+            inv: complex.plan_fft_inverse(n),
+            input: (0..n * n * n)
+                .map(|i| ((i * 7919) % 1009) as f32 / 1009.0 - 0.5)
+                .collect(),
+            output: vec![0.0; n * n * n],
+            spectrum: vec![Complex32::default(); n * n * h],
+            lines: vec![Complex32::default(); n * n * h],
+        }
+    }
+
+    /// Transform every `n`-line along y of a `[y][kx]` slab with `fft`,
+    /// through `t`, a slab-sized buffer.
+    fn y_lines(fft: &dyn Fft<f32>, slab: &mut [Complex32], t: &mut [Complex32], n: usize) {
+        let h = slab.len() / n;
+        for (y, row) in slab.chunks(h).enumerate() {
+            for (kx, v) in row.iter().enumerate() {
+                t[kx * n + y] = *v;
+            }
+        }
+        fft.process(t);
+        for (y, row) in slab.chunks_mut(h).enumerate() {
+            for (kx, v) in row.iter_mut().enumerate() {
+                *v = t[kx * n + y];
+            }
+        }
+    }
+
+    fn run(&mut self) {
+        let (n, h) = (self.n, self.n / 2 + 1);
+        let slab = n * h;
+        let (r2c, fwd) = (&self.r2c, &self.fwd);
+        self.input
+            .par_chunks(n * n)
+            .zip(self.spectrum.par_chunks_mut(slab))
+            .for_each_init(
+                || (vec![0.0f32; n], vec![Complex32::default(); slab]),
+                |(row, t), (src, dst)| {
+                    for (r, d) in src.chunks(n).zip(dst.chunks_mut(h)) {
+                        row.copy_from_slice(r);
+                        r2c.process(row, d).expect("r2c lengths are planned");
+                    }
+                    Self::y_lines(fwd.as_ref(), dst, t, n);
+                },
+            );
+        let spectrum = &self.spectrum;
+        self.lines
+            .par_chunks_mut(n * BLOCK)
+            .enumerate()
+            .for_each(|(b, block)| {
+                let cols = block.len() / n;
+                for z in 0..n {
+                    let row = &spectrum[z * slab + b * BLOCK..][..cols];
+                    for (j, v) in row.iter().enumerate() {
+                        block[j * n + z] = *v;
+                    }
+                }
+                self.fwd.process(block);
+                self.inv.process(block);
+            });
+        let lines = &self.lines;
+        self.spectrum
+            .par_chunks_mut(slab * BLOCK)
+            .enumerate()
+            .for_each(|(b, slabs)| {
+                let z0 = b * BLOCK;
+                let zs = slabs.len() / slab;
+                for col in 0..slab {
+                    for dz in 0..zs {
+                        slabs[dz * slab + col] = lines[col * n + z0 + dz];
+                    }
+                }
+            });
+        let (c2r, inv) = (&self.c2r, &self.inv);
+        self.spectrum
+            .par_chunks_mut(slab)
+            .zip(self.output.par_chunks_mut(n * n))
+            .for_each_init(
+                || vec![Complex32::default(); slab],
+                |t, (src, dst)| {
+                    Self::y_lines(inv.as_ref(), src, t, n);
+                    for (c, d) in src.chunks_mut(h).zip(dst.chunks_mut(n)) {
+                        // The x transform of a real field: its kx = 0 and
+                        // Nyquist terms are real (round-off removed).
+                        c[0].im = 0.0;
+                        if n % 2 == 0 {
+                            c[h - 1].im = 0.0;
+                        }
+                        c2r.process(c, d).expect("c2r lengths are planned");
+                    }
+                },
+            );
+    }
+}
+
+/// One bandwidth-bound pass over the fused advection's fields: five f32
+/// arrays of the cells read, five written.
+struct Bandwidth {
+    src: [Vec<f32>; 5],
+    dst: [Vec<f32>; 5],
+}
+
+/// Elements per task of the copies.
+const COPY_CHUNK: usize = 1 << 16;
+
+impl Bandwidth {
+    fn new(cells: usize) -> Self {
+        Self {
+            src: [(); 5].map(|_| vec![1.0; cells]),
+            dst: [(); 5].map(|_| vec![0.0; cells]),
+        }
+    }
+
+    fn run(&mut self) {
+        for (s, d) in self.src.iter().zip(self.dst.iter_mut()) {
+            d.par_chunks_mut(COPY_CHUNK)
+                .zip(s.par_chunks(COPY_CHUNK))
+                .for_each(|(d, s)| d.copy_from_slice(s));
+        }
+    }
+}
+
+/// The peer scripts and the Python that runs them.
+struct Peers {
+    python: PathBuf,
+    dir: PathBuf,
+}
+
+/// Medians of one resolution's peer rows, ms.
+struct PeerRow {
+    res: usize,
+    taichi_ms: f64,
+    pyfftw_ms: f64,
+}
+
+impl PeerRow {
+    /// Taichi's advection plus three pyFFTW pairs.
+    fn composite_ms(&self) -> f64 {
+        self.taichi_ms + 3.0 * self.pyfftw_ms
+    }
+}
+
+impl Peers {
+    /// Check that `python` runs and imports taichi and pyfftw, and find the
+    /// scripts (`$SMOKELAB_PEERS_DIR`, else `../shared/peers` beside the
+    /// repository).
+    fn new(python: &Path) -> Result<Self> {
+        let ok = Command::new(python)
+            .args(["-c", "import taichi, pyfftw, scipy"])
+            .output()
+            .map_err(|e| {
+                InputError::new(format!(
+                    "--peers {}: cannot run it ({e}); give a Python with taichi, pyfftw and scipy",
+                    python.display()
+                ))
+            })?;
+        if !ok.status.success() {
+            return Err(InputError::new(format!(
+                "--peers {}: it cannot import taichi, pyfftw and scipy: {}",
+                python.display(),
+                String::from_utf8_lossy(&ok.stderr)
+                    .lines()
+                    .last()
+                    .unwrap_or("")
+            ))
+            .into());
+        }
+        let dir = match std::env::var_os("SMOKELAB_PEERS_DIR") {
+            Some(d) => PathBuf::from(d),
+            None => crate::paper::repository_root()?.join("../shared/peers"),
+        };
+        for script in ["taichi_advect.py", "fft_py.py"] {
+            if !dir.join(script).is_file() {
+                return Err(InputError::new(format!(
+                    "--peers: no {script} in {} (set SMOKELAB_PEERS_DIR to the peers' folder)",
+                    dir.display()
+                ))
+                .into());
+            }
+        }
+        Ok(Self {
+            python: python.to_path_buf(),
+            dir,
+        })
+    }
+
+    /// Run `script` with `args`; its CSV rows as fields.
+    fn rows(&self, script: &str, args: &[&str]) -> Result<Vec<Vec<String>>> {
+        let o = Command::new(&self.python)
+            .arg(self.dir.join(script))
+            .args(args)
+            .output()
+            .with_context(|| format!("cannot run {script}"))?;
+        if !o.status.success() {
+            bail!(
+                "{script} {} failed: {}",
+                args.join(" "),
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        Ok(String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .skip_while(|l| !l.starts_with("impl,"))
+            .skip(1)
+            .map(|l| l.split(',').map(str::to_string).collect())
+            .collect())
+    }
+
+    /// Both scripts at `sizes`, 2 threads, f32.
+    fn measure(&self, sizes: &[usize]) -> Result<Vec<PeerRow>> {
+        let list = sizes
+            .iter()
+            .map(usize::to_string)
+            .collect::<Vec<_>>()
+            .join(",");
+        let taichi = self.rows("taichi_advect.py", &[&list, "2", "f32"])?;
+        let fft = self.rows("fft_py.py", &[&list, "2"])?;
+        // Columns: impl, dtype, N, threads, what, median_ms, …
+        let find = |rows: &[Vec<String>], imp: &str, dtype: &str, n: usize| -> Result<f64> {
+            rows.iter()
+                .find(|r| r.len() > 5 && r[0] == imp && r[1] == dtype && r[2] == n.to_string())
+                .and_then(|r| r[5].parse().ok())
+                .with_context(|| format!("no {imp} {dtype} row for N = {n} in the peers' output"))
+        };
+        sizes
+            .iter()
+            .map(|&n| {
+                Ok(PeerRow {
+                    res: n,
+                    taichi_ms: find(&taichi, "taichi_sl_advect_5fields", "float32", n)?,
+                    pyfftw_ms: find(&fft, "pyfftw", "float32", n)?,
+                })
+            })
+            .collect()
+    }
+}
+
+/// Write `data.csv`: one row per resolution, the peer columns only with peers.
+fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()> {
+    let mut cols = vec![
+        "res",
+        "cells",
+        "setup_s",
+        "step_ms",
+        "mcells_per_s",
+        "step_1thread_ms",
+        "speedup",
+        "step_euler_ms",
+        "advect_ms",
+        "density_ms",
+        "force_ms",
+        "project_ms",
+        "fft_pair_f32_ms",
+        "fft_pair_solver_f64_ms",
+        "bandwidth_ms",
+        "floor_ms",
+        "step_over_floor",
+        "bitwise_equal",
+    ];
+    if peers.is_some() {
+        cols.extend([
+            "peer_taichi_advect_ms",
+            "peer_pyfftw_pair_ms",
+            "peer_ms",
+            "peer_over_step_euler",
+        ]);
+    }
+    let table: Vec<Vec<f64>> = rows
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let mut v = vec![
+                r.res as f64,
+                r.cells as f64,
+                r.setup_s,
+                r.step_ms,
+                r.mcells_per_s(),
+                r.step_1t_ms,
+                r.speedup(),
+                r.step_euler_ms,
+                r.advect_ms,
+                r.density_ms,
+                r.force_ms,
+                r.project_ms,
+                r.fft_f32_ms,
+                r.fft_solver_ms,
+                r.bandwidth_ms,
+                r.floor_ms(),
+                r.step_ms / r.floor_ms(),
+                f64::from(u8::from(r.bitwise_equal)),
+            ];
+            if let Some(p) = peers.map(|p| &p[i]) {
+                v.extend([
+                    p.taichi_ms,
+                    p.pyfftw_ms,
+                    p.composite_ms(),
+                    p.composite_ms() / r.step_euler_ms,
+                ]);
+            }
+            v
+        })
+        .collect();
+    let cols: Vec<String> = cols.into_iter().map(String::from).collect();
+    write_columns(&out.join("data.csv"), &cols, &table)
+}
+
+/// `time`, `threads` and `stages` plots (the `density` stage, empty for
+/// gridded gases, only in `data.csv`).
+fn plot(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f64>) -> Result<()> {
+    let pts = |f: &dyn Fn(&Row) -> f64| -> Vec<(f64, f64)> {
+        rows.iter().map(|r| (r.cells as f64, f(r))).collect()
+    };
+    let mut time = Plot::new("hot/cold step time (P-1)", "cells", "ms per step")
+        .log_x()
+        .log_y()
+        .legend(LegendPosition::UpperLeft)
+        .series(
+            Series::line("step, 2 threads (RK2)", pts(&|r| r.step_ms)).styled(Style::LineMarkers),
+        )
+        .series(
+            Series::line("step, 1 thread (RK2)", pts(&|r| r.step_1t_ms)).styled(Style::LineMarkers),
+        )
+        .series(
+            Series::line("step, 2 threads (Euler)", pts(&|r| r.step_euler_ms))
+                .styled(Style::LineMarkers),
+        )
+        .series(
+            Series::line("floor: FFT pair + bandwidth pass", pts(&|r| r.floor_ms()))
+                .styled(Style::LineMarkers),
+        );
+    if let Some(p) = peers {
+        let composite = rows
+            .iter()
+            .zip(p)
+            .map(|(r, p)| (r.cells as f64, p.composite_ms()))
+            .collect();
+        time = time.series(
+            Series::line("peer: Taichi advect (Euler) + 3 pyFFTW pairs", composite)
+                .styled(Style::LineMarkers),
+        );
+    }
+    if let (Some(b), Some(first)) = (exponent, rows.first()) {
+        let fit = linear_fit(
+            &rows
+                .iter()
+                .map(|r| ((r.cells as f64).ln(), r.step_ms.ln()))
+                .collect::<Vec<_>>(),
+        )
+        .expect("fitted above");
+        let line = rows
+            .iter()
+            .map(|r| {
+                let x = r.cells as f64;
+                (x, (fit.intercept + b * x.ln()).exp())
+            })
+            .collect();
+        time = time
+            .series(Series::line(format!("fit: t ∝ cells^{b:.2}"), line).styled(Style::Dashed))
+            .annotate(Annotation::at_fraction(
+                0.5,
+                0.9,
+                format!(
+                    "exponent {b:.2}, {}³…{}³",
+                    first.res,
+                    rows[rows.len() - 1].res
+                ),
+            ));
+    }
+    time.write(&out.join("time"))?;
+    Plot::new("2 threads against 1 (P-1)", "cells", "speed-up t₁ / t₂")
+        .log_x()
+        .y_range(0.0, 2.5)
+        .legend(LegendPosition::LowerRight)
+        .series(
+            Series::line("hot/cold step (RK2)", pts(&|r| r.speedup())).styled(Style::LineMarkers),
+        )
+        .series(Series::line("ideal (2 cores)", pts(&|_| 2.0)).styled(Style::Dashed))
+        .write(&out.join("threads"))?;
+    let share = |f: fn(&Row) -> f64| pts(&move |r: &Row| f(r) / r.step_ms);
+    Plot::new(
+        "share of the step per stage, 2 threads (P-1)",
+        "cells",
+        "stage ms / step ms",
+    )
+    .log_x()
+    .y_range(0.0, 1.0)
+    .legend(LegendPosition::UpperRight)
+    .series(Series::line("advect", share(|r| r.advect_ms)).styled(Style::LineMarkers))
+    .series(Series::line("project", share(|r| r.project_ms)).styled(Style::LineMarkers))
+    .series(Series::line("force", share(|r| r.force_ms)).styled(Style::LineMarkers))
+    .write(&out.join("stages"))?;
+    Ok(())
+}
+
+/// The Markdown table for the README and the paper.
+fn table(rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f64>) -> String {
+    let mut s = String::from(
+        "| res | step ms | Mcells/s | 1 thread ms | speed-up | advect | force | project | floor ms | step ÷ floor |",
+    );
+    if peers.is_some() {
+        s.push_str(" Euler step ms | peer ms | peer ÷ Euler step |");
+    }
+    s.push_str("\n|---|---|---|---|---|---|---|---|---|---|");
+    if peers.is_some() {
+        s.push_str("---|---|---|");
+    }
+    s.push('\n');
+    for (i, r) in rows.iter().enumerate() {
+        s.push_str(&format!(
+            "| {}³ | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            r.res,
+            r.step_ms,
+            r.mcells_per_s(),
+            r.step_1t_ms,
+            r.speedup(),
+            r.advect_ms,
+            r.force_ms,
+            r.project_ms,
+            r.floor_ms(),
+            r.step_ms / r.floor_ms()
+        ));
+        if let Some(p) = peers.map(|p| &p[i]) {
+            s.push_str(&format!(
+                " {:.1} | {:.1} | {:.2} |",
+                r.step_euler_ms,
+                p.composite_ms(),
+                p.composite_ms() / r.step_euler_ms
+            ));
+        }
+        s.push('\n');
+    }
+    if let Some(b) = exponent {
+        s.push_str(&format!(
+            "\nStep time ∝ cells^{b:.2} (least squares over the rows).\n"
+        ));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The floor's pair is a real transform pair: back to the input times
+    /// n³ (unnormalised). Measured max error 1.2e-7 at 8³, 1.8e-7 at 12³
+    /// (f32 round-off); a wrong transpose or a missing axis gives O(1).
+    #[test]
+    fn fft_pair_returns_its_input_times_the_cell_count() {
+        for n in [8, 12] {
+            let mut pair = FftPair::new(n);
+            pair.run();
+            let scale = (n * n * n) as f32;
+            let err = pair
+                .input
+                .iter()
+                .zip(&pair.output)
+                .map(|(a, b)| (a - b / scale).abs())
+                .fold(0.0f32, f32::max);
+            assert!(err < 2e-6, "{n}³: max error {err}");
+        }
+    }
+
+    /// `same_bits` sees one ulp in one density cell and one velocity face.
+    #[test]
+    fn same_bits_sees_one_ulp() {
+        let mut a = config(12).build().unwrap();
+        a.step();
+        let b = a.clone();
+        assert!(same_bits(&a, &b));
+        let mut c = b.clone();
+        let v = &mut c.velocity.slice_mut(1)[100];
+        *v = f32::from_bits(v.to_bits() + 1);
+        assert!(!same_bits(&a, &c));
+        let mut d = b.clone();
+        let grid = d.gases[1].model.gridded_mut().expect("a gridded gas");
+        let rho = &mut grid.as_slice_mut()[5];
+        *rho = f32::from_bits(rho.to_bits() + 1);
+        assert!(!same_bits(&a, &d));
+    }
+}

@@ -1,0 +1,85 @@
+//! Experiment P-1 (issue 16's performance table) at smoke size, and its
+//! `--peers` flag's input errors. Timings are not asserted (the machine is
+//! shared); what is asserted is what the run must produce whatever the load:
+//! every resolution measured, the 1- and 2-thread fields bitwise equal (the
+//! experiment fails otherwise, at 32³ among others), the peer columns absent
+//! without `--peers`, and the plots and manifest written.
+
+mod common;
+
+use common::{num, smoke_experiment, smokelab, table};
+
+#[test]
+fn p1_smoke_measures_every_resolution_and_threads_agree_bitwise() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = smoke_experiment(dir.path(), "P-1");
+    let rows = table(&out.join("data.csv"));
+    let res: Vec<f64> = rows.iter().map(|r| num(r, "res")).collect();
+    assert_eq!(res, [16.0, 32.0]);
+    for r in &rows {
+        assert_eq!(num(r, "bitwise_equal"), 1.0);
+        assert_eq!(num(r, "cells"), num(r, "res").powi(3));
+        for col in [
+            "step_ms",
+            "step_1thread_ms",
+            "step_euler_ms",
+            "advect_ms",
+            "project_ms",
+        ] {
+            assert!(num(r, col) > 0.0, "{col} = {}", num(r, col));
+        }
+        // The floor and the ratio are what the columns say they are.
+        let floor = num(r, "fft_pair_f32_ms").min(num(r, "fft_pair_solver_f64_ms"))
+            + num(r, "bandwidth_ms");
+        assert!((num(r, "floor_ms") - floor).abs() <= 1e-9 * floor);
+        let ratio = num(r, "step_ms") / floor;
+        assert!((num(r, "step_over_floor") - ratio).abs() <= 1e-9 * ratio);
+        assert!(!r.contains_key("peer_ms"), "peer columns without --peers");
+    }
+    for f in ["time", "threads", "stages"] {
+        for ext in ["png", "svg"] {
+            let p = out.join(format!("{f}.{ext}"));
+            assert!(
+                std::fs::metadata(&p).unwrap().len() > 1000,
+                "{}",
+                p.display()
+            );
+        }
+    }
+    let m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(m["extra"]["bitwise_equal_1_vs_2_threads"], true);
+    assert!(m["extra"]["peers"].as_str().unwrap().starts_with("absent"));
+    assert!(m["extra"]["load_before"].is_string() && m["extra"]["load_after"].is_string());
+    let md = std::fs::read_to_string(out.join("table.md")).unwrap();
+    assert!(md.contains("| 16³ |") && md.contains("| 32³ |"), "{md}");
+}
+
+#[test]
+fn p1_refuses_a_bad_peers_python_with_exit_2_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    for (id, python) in [
+        ("P-1", "/nonexistent/python"),
+        // A program that runs but is not a Python with the peers' modules.
+        ("P-1", "/bin/false"),
+        // --peers belongs to P-1 only.
+        ("C-1", "/bin/false"),
+    ] {
+        let o = smokelab(
+            &[
+                "experiment",
+                id,
+                "--smoke",
+                "--quiet",
+                "--out",
+                "o",
+                "--peers",
+                python,
+            ],
+            dir.path(),
+        );
+        assert_eq!(o.status.code(), Some(2), "{id} {python}: {o:?}");
+        assert!(String::from_utf8_lossy(&o.stderr).contains("--peers"));
+        assert!(!dir.path().join("o").exists());
+    }
+}
