@@ -61,6 +61,44 @@ pub fn repository_root() -> Result<PathBuf> {
         })
 }
 
+/// The paper's performance section from experiment P-1's `table.md` and
+/// manifest in `perf` (`results/perf`): what was timed, the machine's load
+/// before and after, and the table.
+///
+/// # Errors
+/// A missing or unreadable table or manifest.
+fn performance(perf: &Path) -> Result<String> {
+    let table = std::fs::read_to_string(perf.join("table.md"))
+        .with_context(|| format!("cannot read {}/table.md", perf.display()))?;
+    let manifest: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(perf.join("manifest.json"))
+            .with_context(|| format!("cannot read {}/manifest.json", perf.display()))?,
+    )
+    .with_context(|| format!("{}/manifest.json is not JSON", perf.display()))?;
+    let extra = &manifest["extra"];
+    let load = |k: &str| extra[k].as_str().unwrap_or("unrecorded").to_string();
+    let peers = if extra["peers"].is_object() {
+        "Peer: Taichi's fused semi-Lagrangian advection of five fields (Euler \
+         backtrace) plus three pyFFTW f32 pairs, run right after smokelab at \
+         each size and compared with smokelab's Euler step."
+    } else {
+        "The peers were not run (`--peers PYTHON` adds them)."
+    };
+    Ok(format!(
+        "One hot/cold step (gridded, semi-Lagrangian RK2, inviscid: advection of \
+         the three face components and both gases, buoyancy, the pressure \
+         solve) on the 2-core machine, f32, medians of experiment P-1 \
+         (`smokelab experiment P-1`, `results/perf/`; this block is written by \
+         `smokelab paper` from `results/perf/table.md`). Times in ms; stages \
+         are the step's own timers; the floor is one FFT pair plus a memory \
+         pass over the five fields; speed-up is 2 threads over 1, with the \
+         fields bitwise equal. {peers} Load average (1, 5, 15 min) before the \
+         run: {}; after: {}.\n\n{table}",
+        load("load_before"),
+        load("load_after"),
+    ))
+}
+
 /// Refresh the generated blocks of `root/paper/paper.md` and, if pandoc is
 /// installed, write `root/paper/paper.html`.
 ///
@@ -78,6 +116,10 @@ pub fn build(root: &Path) -> Result<()> {
         )
     })?;
     doc = replace_block(&doc, "orders", &table)?;
+    let perf = root.join("results/perf");
+    if perf.join("table.md").exists() && doc.contains("<!-- performance:begin -->") {
+        doc = replace_block(&doc, "performance", &performance(&perf)?)?;
+    }
     if doc.contains("<!-- claims:begin -->") {
         doc = replace_block(
             &doc,
@@ -118,5 +160,27 @@ mod tests {
         assert_eq!(out, "a\n<!-- t:begin -->\nnew\n<!-- t:end -->\nb\n");
         assert!(replace_block(doc, "missing", "x").is_err());
         assert!(replace_block("<!-- t:end --><!-- t:begin -->", "t", "x").is_err());
+    }
+
+    #[test]
+    fn performance_block_carries_p1_table_load_and_peers() {
+        let dir = tempfile::tempdir().unwrap();
+        assert!(performance(dir.path()).is_err(), "no table, no block");
+        std::fs::write(dir.path().join("table.md"), "| res |\n|---|\n| 32³ |\n").unwrap();
+        let manifest = |peers: serde_json::Value| {
+            let m = serde_json::json!({"extra": {
+                "load_before": "0.31 0.40 0.52 1/200 7",
+                "load_after": "1.90 0.80 0.60 2/200 9",
+                "peers": peers,
+            }});
+            std::fs::write(dir.path().join("manifest.json"), m.to_string()).unwrap();
+        };
+        manifest(serde_json::json!("absent: run with --peers PYTHON"));
+        let text = performance(dir.path()).unwrap();
+        assert!(text.ends_with("| res |\n|---|\n| 32³ |\n"), "{text}");
+        assert!(text.contains("before the run: 0.31 0.40 0.52 1/200 7; after: 1.90"));
+        assert!(text.contains("were not run"));
+        manifest(serde_json::json!({"python": "/x/python"}));
+        assert!(performance(dir.path()).unwrap().contains("Taichi's fused"));
     }
 }
