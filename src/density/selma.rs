@@ -264,7 +264,7 @@ impl SelmaMap {
     }
 
     /// Eq 8.8 on the displacement: `D_n(x) = (B_n(x) − x) + D_{n−1}(B_n(x))`,
-    /// one z-slab of map nodes traced at a time ([`trace_batch`]).
+    /// eight map nodes traced at a time ([`trace_batch`]).
     fn advect(&mut self, input: &StepInput<'_>) {
         let md = *self.domain();
         let vd = *input.velocity.domain();
@@ -277,41 +277,44 @@ impl SelmaMap {
         // Map nodes on the velocity grid are its cell centres: trace from
         // the integer lattice points, exactly as the gridded path does.
         let same = md == vd;
-        out.par_chunks_mut(slab).enumerate().for_each_init(
-            || (Vec::new(), Vec::new(), Vec::new()),
-            |(centres, starts, deps): &mut (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>), (k, out)| {
-                md.slab_centers(k, centres);
-                starts.clear();
-                if same {
-                    // Exact integers (`grid_coords` of a centre may round).
-                    let nx = md.dims[0];
-                    starts.extend(
-                        (0..slab).map(|n| Vec3::new((n % nx) as f32, (n / nx) as f32, k as f32)),
-                    );
-                } else {
-                    starts.extend(centres.iter().map(|&p| vd.grid_coords(p)));
+        let nx = md.dims[0];
+        out.par_chunks_mut(slab).enumerate().for_each(|(k, out)| {
+            // Groups of eight nodes on the stack: the step allocates nothing.
+            for (g, out) in out.chunks_mut(8).enumerate() {
+                let first = 8 * g;
+                let node = |n: usize| ((first + n) % nx, (first + n) / nx);
+                let mut starts = [Vec3::ZERO; 8];
+                for (n, s) in starts.iter_mut().enumerate().take(out.len()) {
+                    let (i, j) = node(n);
+                    *s = if same {
+                        // Exact integers (`grid_coords` of a centre may round).
+                        Vec3::new(i as f32, j as f32, k as f32)
+                    } else {
+                        vd.grid_coords(md.cell_center(i, j, k))
+                    };
                 }
-                deps.clone_from(starts);
-                trace_batch(u, deps, dt_cells, bt);
-                for (((o, &dep), &c), &p) in out.iter_mut().zip(&*deps).zip(&*starts).zip(&*centres)
-                {
+                let mut deps = starts;
+                trace_batch(u, &mut deps[..out.len()], dt_cells, bt);
+                for (n, ((o, &dep), &c)) in out.iter_mut().zip(&deps).zip(&starts).enumerate() {
                     let dep = walls.map_or(dep, |w| w.stop(dep));
                     *o = if same {
                         (dep - c) * md.cell + old.sample_grid_coords(dep)
                     } else {
+                        let (i, j) = node(n);
+                        let p = md.cell_center(i, j, k);
                         let d = vd.world_of(dep);
                         (d - p) + old.sample_grid_coords(md.grid_coords(d))
                     };
                 }
-            },
-        );
+            }
+        });
         drop(old);
         std::mem::swap(&mut self.disp, &mut self.spare);
     }
 
     /// Move every lattice node by the inverse of the step's backtrace:
     /// solve `B(y') = y` by `y' ← y + (y' − B(y'))` from the predictor
-    /// `y' = y + (y − B(y))`, 4096 nodes traced at a time ([`trace_batch`]).
+    /// `y' = y + (y − B(y))`, eight nodes traced at a time ([`trace_batch`]).
     fn track_lattice(&mut self, input: &StepInput<'_>) {
         let vd = *input.velocity.domain();
         let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
@@ -319,25 +322,28 @@ impl SelmaMap {
         self.lattice
             .as_vec3_mut()
             .par_chunks_mut(4096)
-            .for_each_init(
-                || (Vec::new(), Vec::new(), Vec::new()),
-                |(g0, g, back): &mut (Vec<Vec3>, Vec<Vec3>, Vec<Vec3>), ys| {
-                    g0.clear();
-                    g0.extend(ys.iter().map(|&y| vd.grid_coords(y)));
-                    g.clone_from(g0);
+            .for_each(|ys| {
+                // Groups of eight nodes on the stack: nothing is allocated.
+                for ys in ys.chunks_mut(8) {
+                    let n = ys.len();
+                    let mut g0 = [Vec3::ZERO; 8];
+                    for (g0, y) in g0.iter_mut().zip(&*ys) {
+                        *g0 = vd.grid_coords(*y);
+                    }
+                    let mut g = g0;
                     for _ in 0..=FORWARD_ITERATIONS {
-                        back.clone_from(g);
-                        trace_batch(u, back, dt_cells, bt);
-                        for ((g, &g0), &b) in g.iter_mut().zip(&*g0).zip(&*back) {
+                        let mut back = g;
+                        trace_batch(u, &mut back[..n], dt_cells, bt);
+                        for ((g, &g0), &b) in g.iter_mut().zip(&g0).zip(&back).take(n) {
                             *g = g0 + (*g - b);
                         }
                     }
-                    for (y, &g) in ys.iter_mut().zip(&*g) {
+                    for (y, &g) in ys.iter_mut().zip(&g) {
                         let g = walls.map_or(g, |w| w.stop(g));
                         *y = wrap_world(&vd, vd.world_of(g));
                     }
-                },
-            );
+                }
+            });
     }
 
     /// How far the tracked lattice has deformed since the last
