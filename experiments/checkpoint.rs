@@ -5,8 +5,9 @@
 //! What is stored is [`Simulation::state`] — the step count, the staggered
 //! velocity, and per gas its mass budget and density state (gridded: the
 //! grid; gridless: the history of velocity grids, each grid shared between
-//! gases stored once; SELMA: map, reference density, tracked lattice and
-//! whether `ρ₀` is still composed), and the obstacle solves' warm starts
+//! gases stored once; SELMA: reference density, whether `ρ₀` is still
+//! composed, and the map and tracked lattice stored with the gas that owns
+//! them — the first of the gases sharing them), and the obstacle solves' warm starts
 //! (the exact projection's f64 pressure, QUICK's face potential) — and the
 //! [`RunRecord`]: scenario,
 //! resolved configuration and the output flags. Sources, obstacles,
@@ -35,9 +36,9 @@ use std::sync::Arc;
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
 use smokelab::advection::Backtrace;
-use smokelab::density::{DensityMode, DensityState};
+use smokelab::density::{DensityMode, DensityState, MapState};
 use smokelab::error::InputError;
-use smokelab::grid::FaceGrid;
+use smokelab::grid::{FaceGrid, VectorGrid};
 use smokelab::io::{self, manifest::BUILD_COMMIT};
 use smokelab::scenario::ScenarioKind;
 use smokelab::simulation::{MassBudget, Simulation, SimulationState};
@@ -47,8 +48,9 @@ pub const FILE: &str = "checkpoint.bin";
 
 const MAGIC: &[u8; 8] = b"SMKCKPT\0";
 
-/// The layout version this build writes and reads.
-pub const FORMAT: u32 = 1;
+/// The layout version this build writes and reads (2: SELMA gases share
+/// one map, stored once).
+pub const FORMAT: u32 = 2;
 
 /// What a run needs besides its state to go on as it started.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -105,6 +107,9 @@ struct GasHeader {
     /// SELMA: `ρ₀` still composed, and re-anchorings so far.
     composes_initial: bool,
     restarts: usize,
+    /// SELMA: the gas shares the map of the SELMA gas before it (its map
+    /// and lattice are not stored).
+    shares_map: bool,
 }
 
 /// FNV-1a, 64 bit, of everything written through it.
@@ -208,6 +213,7 @@ fn layout(state: &SimulationState) -> Layout<'_> {
             steps: vec![],
             composes_initial: false,
             restarts: 0,
+            shares_map: false,
         };
         match density {
             DensityState::Gridded(d) => {
@@ -229,12 +235,15 @@ fn layout(state: &SimulationState) -> Layout<'_> {
                 gas.mode = DensityMode::Selma;
                 gas.composes_initial = s.composes_initial;
                 gas.restarts = s.restarts;
-                arrays.push((format!("gas{n}.disp"), Values::F32(s.disp.as_slice())));
+                gas.shares_map = s.map.is_none();
+                if let Some(m) = &s.map {
+                    arrays.push((format!("gas{n}.disp"), Values::F32(m.disp.as_slice())));
+                    arrays.push((format!("gas{n}.lattice"), Values::F32(m.lattice.as_slice())));
+                }
                 arrays.push((
                     format!("gas{n}.reference"),
                     Values::F32(s.reference.as_slice()),
                 ));
-                arrays.push((format!("gas{n}.lattice"), Values::F32(s.lattice.as_slice())));
                 arrays.push((format!("gas{n}.centres"), Values::F32(s.centres.as_slice())));
             }
         }
@@ -421,6 +430,11 @@ impl Checkpoint {
                 (DensityMode::Selma, DensityState::Selma(mut s)) => {
                     s.composes_initial = g.composes_initial;
                     s.restarts = g.restarts;
+                    let md = *s.reference.domain();
+                    s.map = (!g.shares_map).then(|| MapState {
+                        disp: VectorGrid::zeros(md),
+                        lattice: VectorGrid::zeros(md),
+                    });
                     DensityState::Selma(s)
                 }
                 _ => return Err(misfit()),
@@ -450,11 +464,14 @@ impl Checkpoint {
             let filled = match density {
                 DensityState::Gridded(d) => arrays.fill(d.as_slice_mut()),
                 DensityState::Gridless { centres, .. } => arrays.fill(centres.as_slice_mut()),
-                DensityState::Selma(s) => arrays
-                    .fill(s.disp.as_slice_mut())
-                    .and_then(|()| arrays.fill(s.reference.as_slice_mut()))
-                    .and_then(|()| arrays.fill(s.lattice.as_slice_mut()))
-                    .and_then(|()| arrays.fill(s.centres.as_slice_mut())),
+                DensityState::Selma(s) => match &mut s.map {
+                    Some(m) => arrays
+                        .fill(m.disp.as_slice_mut())
+                        .and_then(|()| arrays.fill(m.lattice.as_slice_mut())),
+                    None => Some(()),
+                }
+                .and_then(|()| arrays.fill(s.reference.as_slice_mut()))
+                .and_then(|()| arrays.fill(s.centres.as_slice_mut())),
             };
             filled.ok_or_else(misfit)?;
         }

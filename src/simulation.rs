@@ -324,8 +324,8 @@ impl Simulation {
     /// [`Advector`] together (semi-Lagrangian: `ρ ← ρ(x − uΔt)`, `u ← u(x − uΔt)`
     /// sharing one backtrace per cell; QUICK: finite volumes through the same
     /// frozen face velocities); gridless densities keep the velocity (eq 7.4)
-    /// and SELMA advects its map (eq 8.8), both with the semi-Lagrangian
-    /// backtrace whatever the scheme. With exact obstacles a gridded density
+    /// and SELMA advects one map for all its gases (eq 8.8, [`crate::density::selma::step_group`]),
+    /// both with the semi-Lagrangian backtrace whatever the scheme. With exact obstacles a gridded density
     /// holds nothing in the dry cells after the step
     /// ([`crate::boundary::OpenFaces::clear_dry`]): what a backtrace carried
     /// there is lost, and counted so by the retained mass. Each gridded
@@ -373,7 +373,12 @@ impl Simulation {
             if let (Some(before), Some((_, advected))) = (before, gas.model.advection_pair()) {
                 gas.budget.advection += advected.total() - before;
             }
-            gas.model.step(&input, &gas.source);
+        }
+        DensityModel::step_all(
+            self.gases.iter_mut().map(|g| (&mut g.model, &g.source)),
+            &input,
+        );
+        for gas in &mut self.gases {
             if let (Some(faces), Some(rho)) = (faces, gas.model.gridded_mut()) {
                 let kept = rho.total();
                 faces.clear_dry(rho.as_slice_mut());
@@ -535,6 +540,16 @@ impl Simulation {
         };
         if !(pressure_fits && potential_fits) {
             return Err(misfit());
+        }
+        // A SELMA gas sharing a map needs an earlier SELMA gas owning one.
+        let first_selma = state.gases.iter().find_map(|(_, d)| match d {
+            DensityState::Selma(s) => Some(s.map.is_some()),
+            _ => None,
+        });
+        if first_selma == Some(false) {
+            return Err(InputError::new(
+                "the state's first SELMA gas shares a map no earlier gas owns",
+            ));
         }
         for (gas, (budget, density)) in self.gases.iter_mut().zip(state.gases) {
             gas.model.restore(density)?;

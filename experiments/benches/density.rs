@@ -11,9 +11,15 @@
 //! velocity grids (RK2) on one thread; elements/s = cells × stored steps, so
 //! its inverse is the cost per cell per stored step per thread.
 //!
+//! `selma_vs_gridded` times gridded and SELMA steps of the hot/cold flow at
+//! 64³ and 128³ in one run (each simulation warmed 20 steps, then stepped
+//! in place, so SELMA's periodic re-anchorings are in its mean): the ratio
+//! of the two is issue 16's SELMA target (≤ 2).
+//!
 //! Run: `cargo bench --bench density` (a few minutes; the warm-up of the
 //! 50³ gridless runs dominates); `cargo bench --bench density -- gridless/walk`
-//! for the walk alone (seconds).
+//! for the walk alone (seconds); `cargo bench --bench density --
+//! selma_vs_gridded` for the ratio (about a minute).
 
 use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
@@ -62,6 +68,24 @@ fn benches(c: &mut Criterion) {
     g.finish();
 }
 
+/// Gridded and SELMA steps at 64³ and 128³, side by side.
+fn selma_vs_gridded(c: &mut Criterion) {
+    let mut g = c.benchmark_group("selma_vs_gridded");
+    g.sample_size(10)
+        .warm_up_time(Duration::from_millis(500))
+        .measurement_time(Duration::from_secs(5));
+    for res in [64usize, 128] {
+        for mode in [DensityMode::Gridded, DensityMode::Selma] {
+            let mut sim = warmed(res, mode, 20);
+            g.throughput(Throughput::Elements(sim.domain().len() as u64));
+            g.bench_function(BenchmarkId::new(mode.name(), res), |b| {
+                b.iter(|| sim.step())
+            });
+        }
+    }
+    g.finish();
+}
+
 /// Cell centres of a 32³ flow walked back through its 20 stored steps.
 fn walk(c: &mut Criterion) {
     let config = SphereWallConfig {
@@ -95,5 +119,5 @@ fn walk(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(density, benches, walk);
+criterion_group!(density, benches, walk, selma_vs_gridded);
 criterion_main!(density);

@@ -47,7 +47,7 @@ use crate::grid::{FaceGrid, ScalarGrid, VectorGrid};
 
 pub use gridded::Gridded;
 pub use gridless::{Gridless, GridlessField, HistoryStep};
-pub use selma::{Selma, SelmaField, SelmaState};
+pub use selma::{step_group, MapState, Selma, SelmaField, SelmaState};
 
 /// A backward characteristic map `X(x)`, evaluated at many points at once:
 /// where the fluid now at `x` came from (gridless: the walk of eq 7.4;
@@ -348,14 +348,35 @@ impl DensityModel {
     /// For gridless and SELMA this does not update [`Self::density`]; call
     /// [`Self::evaluate_centres`] for that (the buoyancy input).
     ///
+    /// A SELMA model steps its own map here; the gases of a simulation
+    /// share one map through [`Self::step_all`] instead.
+    ///
     /// # Panics
-    /// If a gridless model gets no snapshot, or grids are on other domains.
+    /// If a gridless model gets no snapshot, a SELMA model shares another
+    /// gas's map, or grids are on other domains.
     pub fn step(&mut self, input: &StepInput<'_>, source: &ScalarGrid) {
         match self {
             DensityModel::Gridded(g) => g.step(source, input.dt),
             DensityModel::Gridless(g) => g.step(input),
             DensityModel::Selma(s) => s.step(input),
         }
+    }
+
+    /// [`Self::step`] for every gas, in order, each with its grid source;
+    /// the SELMA gases step together ([`selma::step_group`]), sharing one
+    /// map where their maps agree.
+    pub fn step_all<'a>(
+        gases: impl IntoIterator<Item = (&'a mut DensityModel, &'a ScalarGrid)>,
+        input: &StepInput<'_>,
+    ) {
+        let mut selma = Vec::new();
+        for (model, source) in gases {
+            match model {
+                DensityModel::Selma(s) => selma.push(&mut **s),
+                other => other.step(input, source),
+            }
+        }
+        step_group(&mut selma, input);
     }
 
     /// Evaluate the density at the velocity grid's cell centres into
@@ -450,10 +471,10 @@ impl DensityModel {
             (DensityModel::Selma(s), DensityState::Selma(state)) => {
                 let (md, d) = (*s.map_domain(), *s.density().domain());
                 let on = |g: &Domain, e: &Domain| g == e;
-                if !(on(state.disp.domain(), &md)
-                    && on(state.reference.domain(), &md)
-                    && on(state.lattice.domain(), &md)
-                    && on(state.centres.domain(), &d))
+                let map_on = (state.map.as_ref()).map_or(true, |m| {
+                    on(m.disp.domain(), &md) && on(m.lattice.domain(), &md)
+                });
+                if !(map_on && on(state.reference.domain(), &md) && on(state.centres.domain(), &d))
                 {
                     return Err(mismatch());
                 }
@@ -480,7 +501,8 @@ pub enum DensityState {
         /// The density at the cell centres after the last step.
         centres: ScalarGrid,
     },
-    /// The map, reference density and tracked lattice.
+    /// The reference density, and the map and tracked lattice if the gas
+    /// owns them.
     Selma(Box<SelmaState>),
 }
 

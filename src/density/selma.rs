@@ -16,8 +16,19 @@
 //! plus a displacement, and the identity is not periodic: the grid stores
 //! the **displacement** `D = X − x`, which is, so interpolating across the
 //! periodic seam is exact. `B_n` is [`crate::advection::departure_point`], the
-//! backtrace of the gridded and gridless paths; when the map grid is the
-//! velocity grid the step's shared departure points are used directly.
+//! backtrace of the gridded and gridless paths, eight points at a time
+//! through the gridless walk's AVX2 kernel; when the map grid is the
+//! velocity grid its nodes are traced from the integer lattice points, and
+//! the density at the cell centres reads `X` off the nodes.
+//!
+//! # One map for all gases
+//!
+//! Every gas is moved by the same velocity, so the gases' maps and tracked
+//! lattices are the same numbers; only `R` (below) differs. [`step_group`]
+//! keeps one [`SelmaMap`] for the gases whose maps agree: advected and its
+//! lattice moved once per step, each gas injecting its own source, all
+//! gases re-anchored together when the shared lattice has deformed too far.
+//! Each gas gets the bits it would get alone (`tests` below).
 //!
 //! # Continuous injection (the design chosen, after DESIGN.md "SELMA")
 //!
@@ -60,9 +71,10 @@
 //! plumes collide. `τ = 0` never re-anchors (pure design (a), the notes'
 //! SELMA for a source-free `ρ₀`).
 //!
-//! Memory: 11 floats per map cell (`D` and its scratch, the tracked lattice
-//! `Y`, `R` and its scratch), constant in the number of steps; a query is
-//! one interpolation of `D` and one of `R`, also constant.
+//! Memory: 9 floats per map cell for the shared map (`D` and its scratch,
+//! the tracked lattice `Y`) and 2 per gas (`R` and its scratch), constant in
+//! the number of steps; a query is one interpolation of `D` and one of `R`,
+//! also constant.
 //!
 //! # Error
 //!
@@ -89,11 +101,13 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::{wrap_world, Buffer, StepInput};
-use crate::advection::departure_point;
+#[cfg(target_arch = "x86_64")]
+use crate::advection::simd;
+use crate::advection::{departure_point, Backtrace};
 use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
-use crate::grid::{ScalarGrid, VectorGrid};
+use crate::grid::{FaceGrid, ScalarGrid, VectorGrid};
 
 /// Corrector iterations of the forward (inverse-backtrace) step of the
 /// tracked lattice, after the predictor.
@@ -147,13 +161,7 @@ impl ScalarField for SelmaField {
 
     fn eval_batch(&self, points: &[Vec3], out: &mut [f32]) {
         self.composed(points, out);
-        if let Some(w) = &self.walls {
-            for (o, &p) in out.iter_mut().zip(points) {
-                if w.inside_world(p) {
-                    *o = 0.0;
-                }
-            }
-        }
+        self.clear_inside(points, out);
     }
 }
 
@@ -165,91 +173,185 @@ impl SelmaField {
         assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
         let mut xi = vec![Vec3::ZERO; points.len()];
         self.map_batch(points, &mut xi);
-        self.reference.eval_batch(&xi, out);
+        self.at_reference(&xi, out);
+    }
+
+    /// `ρ₀(ξ) + R(ξ)` at reference points `xi`.
+    fn at_reference(&self, xi: &[Vec3], out: &mut [f32]) {
+        self.reference.eval_batch(xi, out);
         if let Some(initial) = &self.initial {
-            let mut r0 = vec![0.0; points.len()];
-            initial.eval_batch(&xi, &mut r0);
+            let mut r0 = vec![0.0; xi.len()];
+            initial.eval_batch(xi, &mut r0);
             for (o, r) in out.iter_mut().zip(r0) {
                 *o += r;
             }
         }
     }
+
+    /// Zero where `points` lie inside obstacles.
+    fn clear_inside(&self, points: &[Vec3], out: &mut [f32]) {
+        if let Some(w) = &self.walls {
+            for (o, &p) in out.iter_mut().zip(points) {
+                if w.inside_world(p) {
+                    *o = 0.0;
+                }
+            }
+        }
+    }
 }
 
-/// A SELMA density: the map, the tracked reference lattice, the source and
-/// the cache at the velocity grid's cell centres.
+/// The backward map `X = x + D` and the tracked reference lattice `Y`,
+/// advected once per step for every SELMA gas that shares them: the gases
+/// of a run are moved by the same velocity, so their maps and lattices are
+/// the same numbers, and only the reference densities `R` differ.
 #[derive(Clone)]
-pub struct Selma {
-    field: SelmaField,
-    disp_scratch: VectorGrid,
+pub struct SelmaMap {
+    /// `D = X − x` on the map lattice, world units; each sharing gas's
+    /// field holds a clone of this `Arc`.
+    disp: Arc<VectorGrid>,
+    /// The previous `D`, overwritten by the next step (unshared then, so
+    /// nothing is copied; a live snapshot makes the step allocate instead).
+    spare: Arc<VectorGrid>,
     /// World positions `Y(ξ)` of the reference lattice nodes, wrapped.
     lattice: VectorGrid,
-    /// Scratch for re-anchoring (absent when `remap == 0`).
-    fresh: Option<ScalarGrid>,
-    source: Option<Scalar>,
+    /// Re-anchoring threshold in map cells (0: never).
     remap: f32,
-    restarts: usize,
-    centres: ScalarGrid,
+    /// Obstacles: the map and the lattice stop at their surface.
+    walls: Option<Arc<WallStop>>,
 }
 
-impl Selma {
-    /// A density on the velocity grid `domain` with its map on `map`
-    /// (which must tile the same box), starting at `initial`, injected at
-    /// rate `source`, re-anchored when the lattice deformation exceeds
-    /// `remap` map cells (0: never).
-    ///
-    /// # Panics
-    /// If `map` is not the same box as `domain`.
-    pub fn new(
-        domain: Domain,
-        map: Domain,
-        initial: Option<Scalar>,
-        source: Option<Scalar>,
-        remap: f32,
-    ) -> Self {
-        assert!(
-            (map.origin - domain.origin).abs().max_element() <= 1e-5 * domain.size().max_element()
-                && (map.size() - domain.size()).abs().max_element()
-                    <= 1e-4 * domain.size().max_element(),
-            "selma: the map grid must tile the velocity grid's box"
-        );
-        let field = SelmaField {
-            disp: Arc::new(VectorGrid::zeros(map)),
-            reference: Arc::new(ScalarGrid::zeros(map)),
-            initial,
-            walls: None,
-        };
-        let centres = ScalarGrid::from_field(domain, &field);
+impl SelmaMap {
+    /// The identity map on `map`, at rest.
+    fn new(map: Domain, remap: f32, walls: Option<Arc<WallStop>>) -> Self {
         let mut lattice = VectorGrid::zeros(map);
         reset_lattice(&mut lattice);
         Self {
-            field,
-            disp_scratch: VectorGrid::zeros(map),
+            disp: Arc::new(VectorGrid::zeros(map)),
+            spare: Arc::new(VectorGrid::zeros(map)),
             lattice,
-            fresh: (remap > 0.0).then(|| ScalarGrid::zeros(map)),
-            source,
             remap,
-            restarts: 0,
-            centres,
+            walls,
         }
     }
 
-    /// The map grid.
-    pub fn map_domain(&self) -> &Domain {
-        self.field.disp.domain()
+    fn domain(&self) -> &Domain {
+        self.disp.domain()
     }
 
-    /// Re-anchorings so far.
-    pub fn restarts(&self) -> usize {
-        self.restarts
+    /// Whether `other` is this map with the same settings, to the bit: a
+    /// gas holding it may share this one instead.
+    fn same_as(&self, other: &Self) -> bool {
+        let bits = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        let walls = match (&self.walls, &other.walls) {
+            (None, None) => true,
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        };
+        walls
+            && self.remap.to_bits() == other.remap.to_bits()
+            && self.domain() == other.domain()
+            && bits(self.disp.as_slice(), other.disp.as_slice())
+            && bits(self.lattice.as_slice(), other.lattice.as_slice())
+    }
+
+    /// The grid the next `D` is written to: the spare, or a fresh one when
+    /// a snapshot still holds it.
+    fn spare_mut(&mut self) -> &mut VectorGrid {
+        if Arc::get_mut(&mut self.spare).is_none() {
+            self.spare = Arc::new(VectorGrid::zeros(*self.domain()));
+        }
+        Arc::get_mut(&mut self.spare).expect("a fresh grid is unshared")
+    }
+
+    /// Eq 8.8 on the displacement: `D_n(x) = (B_n(x) − x) + D_{n−1}(B_n(x))`,
+    /// eight map nodes traced at a time ([`trace_batch`]).
+    fn advect(&mut self, input: &StepInput<'_>) {
+        let md = *self.domain();
+        let vd = *input.velocity.domain();
+        let old = Arc::clone(&self.disp);
+        let walls = self.walls.clone();
+        let walls = walls.as_deref();
+        let slab = md.dims[0] * md.dims[1];
+        let out = self.spare_mut().as_vec3_mut();
+        let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
+        // Map nodes on the velocity grid are its cell centres: trace from
+        // the integer lattice points, exactly as the gridded path does.
+        let same = md == vd;
+        let nx = md.dims[0];
+        out.par_chunks_mut(slab).enumerate().for_each(|(k, out)| {
+            // Groups of eight nodes on the stack: the step allocates nothing.
+            for (g, out) in out.chunks_mut(8).enumerate() {
+                let first = 8 * g;
+                let node = |n: usize| ((first + n) % nx, (first + n) / nx);
+                let mut starts = [Vec3::ZERO; 8];
+                for (n, s) in starts.iter_mut().enumerate().take(out.len()) {
+                    let (i, j) = node(n);
+                    *s = if same {
+                        // Exact integers (`grid_coords` of a centre may round).
+                        Vec3::new(i as f32, j as f32, k as f32)
+                    } else {
+                        vd.grid_coords(md.cell_center(i, j, k))
+                    };
+                }
+                let mut deps = starts;
+                trace_batch(u, &mut deps[..out.len()], dt_cells, bt);
+                for (n, ((o, &dep), &c)) in out.iter_mut().zip(&deps).zip(&starts).enumerate() {
+                    let dep = walls.map_or(dep, |w| w.stop(dep));
+                    *o = if same {
+                        (dep - c) * md.cell + old.sample_grid_coords(dep)
+                    } else {
+                        let (i, j) = node(n);
+                        let p = md.cell_center(i, j, k);
+                        let d = vd.world_of(dep);
+                        (d - p) + old.sample_grid_coords(md.grid_coords(d))
+                    };
+                }
+            }
+        });
+        drop(old);
+        std::mem::swap(&mut self.disp, &mut self.spare);
+    }
+
+    /// Move every lattice node by the inverse of the step's backtrace:
+    /// solve `B(y') = y` by `y' ← y + (y' − B(y'))` from the predictor
+    /// `y' = y + (y − B(y))`, eight nodes traced at a time ([`trace_batch`]).
+    fn track_lattice(&mut self, input: &StepInput<'_>) {
+        let vd = *input.velocity.domain();
+        let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
+        let walls = self.walls.as_deref();
+        self.lattice
+            .as_vec3_mut()
+            .par_chunks_mut(4096)
+            .for_each(|ys| {
+                // Groups of eight nodes on the stack: nothing is allocated.
+                for ys in ys.chunks_mut(8) {
+                    let n = ys.len();
+                    let mut g0 = [Vec3::ZERO; 8];
+                    for (g0, y) in g0.iter_mut().zip(&*ys) {
+                        *g0 = vd.grid_coords(*y);
+                    }
+                    let mut g = g0;
+                    for _ in 0..=FORWARD_ITERATIONS {
+                        let mut back = g;
+                        trace_batch(u, &mut back[..n], dt_cells, bt);
+                        for ((g, &g0), &b) in g.iter_mut().zip(&g0).zip(&back).take(n) {
+                            *g = g0 + (*g - b);
+                        }
+                    }
+                    for (y, &g) in ys.iter_mut().zip(&g) {
+                        let g = walls.map_or(g, |w| w.stop(g));
+                        *y = wrap_world(&vd, vd.world_of(g));
+                    }
+                }
+            });
     }
 
     /// How far the tracked lattice has deformed since the last
     /// re-anchoring: the largest `|Y(ξ + h e_a) − Y(ξ) − h e_a| / h` over
     /// nodes `ξ` and axes `a` — in map cells, how far some pair of
     /// neighbouring reference nodes has moved relative to each other.
-    pub fn lattice_deformation(&self) -> f32 {
-        let md = *self.map_domain();
+    fn deformation(&self) -> f32 {
+        let md = *self.domain();
         let [nx, ny, nz] = md.dims;
         let (size, h) = (md.size(), md.cell);
         let y = self.lattice.as_vec3();
@@ -276,105 +378,126 @@ impl Selma {
             .reduce(|| 0.0, f32::max)
     }
 
+    /// `X ←` identity, lattice at rest.
+    fn reset(&mut self) {
+        self.spare_mut().as_slice_mut().fill(0.0);
+        std::mem::swap(&mut self.disp, &mut self.spare);
+        reset_lattice(&mut self.lattice);
+    }
+}
+
+/// A SELMA density: its reference density `R`, its source, the cache at
+/// the velocity grid's cell centres, and the map and lattice — its own, or
+/// shared with the SELMA gas before it ([`step_group`]).
+#[derive(Clone)]
+pub struct Selma {
+    field: SelmaField,
+    /// The map this gas advances; `None` when it shares the map of the
+    /// nearest earlier gas of its group that has one.
+    map: Option<Box<SelmaMap>>,
+    /// Re-anchoring threshold, kept to rebuild a map on restore.
+    remap: f32,
+    /// Scratch for re-anchoring (absent when `remap == 0`).
+    fresh: Option<ScalarGrid>,
+    source: Option<Scalar>,
+    restarts: usize,
+    centres: ScalarGrid,
+}
+
+impl Selma {
+    /// A density on the velocity grid `domain` with its map on `map`
+    /// (which must tile the same box), starting at `initial`, injected at
+    /// rate `source`, re-anchored when the lattice deformation exceeds
+    /// `remap` map cells (0: never).
+    ///
+    /// # Panics
+    /// If `map` is not the same box as `domain`.
+    pub fn new(
+        domain: Domain,
+        map: Domain,
+        initial: Option<Scalar>,
+        source: Option<Scalar>,
+        remap: f32,
+    ) -> Self {
+        assert!(
+            (map.origin - domain.origin).abs().max_element() <= 1e-5 * domain.size().max_element()
+                && (map.size() - domain.size()).abs().max_element()
+                    <= 1e-4 * domain.size().max_element(),
+            "selma: the map grid must tile the velocity grid's box"
+        );
+        let own = SelmaMap::new(map, remap, None);
+        let field = SelmaField {
+            disp: Arc::clone(&own.disp),
+            reference: Arc::new(ScalarGrid::zeros(map)),
+            initial,
+            walls: None,
+        };
+        let centres = ScalarGrid::from_field(domain, &field);
+        Self {
+            field,
+            map: Some(Box::new(own)),
+            remap,
+            fresh: (remap > 0.0).then(|| ScalarGrid::zeros(map)),
+            source,
+            restarts: 0,
+            centres,
+        }
+    }
+
+    /// The map grid.
+    pub fn map_domain(&self) -> &Domain {
+        self.field.disp.domain()
+    }
+
+    /// Re-anchorings so far.
+    pub fn restarts(&self) -> usize {
+        self.restarts
+    }
+
+    /// Whether this gas advances its own map (`false`: it shares an
+    /// earlier gas's, [`step_group`]).
+    pub fn owns_map(&self) -> bool {
+        self.map.is_some()
+    }
+
+    /// How far the tracked lattice of this gas's own map has deformed since
+    /// the last re-anchoring, in map cells (see [`SelmaMap`]); `None` when
+    /// it shares another gas's map.
+    pub fn lattice_deformation(&self) -> Option<f32> {
+        self.map.as_ref().map(|m| m.deformation())
+    }
+
     /// Stop map and lattice updates at the surface of `walls`; zero density
     /// inside them ([`crate::boundary::wall_stop`]).
     pub fn set_walls(&mut self, walls: Arc<WallStop>) {
+        if let Some(m) = &mut self.map {
+            m.walls = Some(walls.clone());
+        }
         self.field.walls = Some(walls);
     }
 
     /// Advect the map (eq 8.8), move the reference lattice forward, inject
     /// the source in reference coordinates, and re-anchor when the lattice
-    /// has deformed by more than the threshold.
+    /// has deformed by more than the threshold: [`step_group`] of this gas
+    /// alone.
+    ///
+    /// # Panics
+    /// If this gas shares another gas's map.
     pub fn step(&mut self, input: &StepInput<'_>) {
-        self.advect_map(input);
-        self.track_lattice(input);
-        self.inject(input.dt);
-        if self.remap > 0.0 && self.lattice_deformation() > self.remap {
-            self.restart();
-        }
-    }
-
-    /// Eq 8.8 on the displacement: `D_n(x) = (B_n(x) − x) + D_{n−1}(B_n(x))`.
-    fn advect_map(&mut self, input: &StepInput<'_>) {
-        let md = *self.map_domain();
-        let vd = *input.velocity.domain();
-        let old = &*self.field.disp;
-        let [nx, ny, _] = md.dims;
-        let out = self.disp_scratch.as_vec3_mut();
-        let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
-        let walls = self.field.walls.as_deref();
-        let departure = |g: Vec3| {
-            let dep = departure_point(u, g, dt_cells, bt);
-            walls.map_or(dep, |w| w.stop(dep))
-        };
-        if md == vd {
-            // Map nodes are the velocity grid's cell centres: trace from the
-            // integer lattice points, exactly as the gridded path does.
-            out.par_chunks_mut(nx * ny)
-                .enumerate()
-                .for_each(|(k, out)| {
-                    for j in 0..ny {
-                        for i in 0..nx {
-                            let c = Vec3::new(i as f32, j as f32, k as f32);
-                            let dep = departure(c);
-                            out[j * nx + i] = (dep - c) * md.cell + old.sample_grid_coords(dep);
-                        }
-                    }
-                });
-        } else {
-            out.par_chunks_mut(nx * ny)
-                .enumerate()
-                .for_each(|(k, out)| {
-                    for j in 0..ny {
-                        for i in 0..nx {
-                            let p = md.cell_center(i, j, k);
-                            let d = vd.world_of(departure(vd.grid_coords(p)));
-                            out[j * nx + i] = (d - p) + old.sample_grid_coords(md.grid_coords(d));
-                        }
-                    }
-                });
-        }
-        std::mem::swap(Arc::make_mut(&mut self.field.disp), &mut self.disp_scratch);
-    }
-
-    /// Move every lattice node by the inverse of the step's backtrace:
-    /// solve `B(y') = y` by `y' ← y + (y' − B(y'))` from the predictor
-    /// `y' = y + (y − B(y))`.
-    fn track_lattice(&mut self, input: &StepInput<'_>) {
-        let vd = *input.velocity.domain();
-        let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
-        let step = |g: Vec3| g - departure_point(u, g, dt_cells, bt);
-        let walls = self.field.walls.as_deref();
-        self.lattice
-            .as_vec3_mut()
-            .par_chunks_mut(4096)
-            .for_each(|ys| {
-                for y in ys {
-                    let g0 = vd.grid_coords(*y);
-                    let mut g = g0 + step(g0);
-                    for _ in 0..FORWARD_ITERATIONS {
-                        g = g0 + step(g);
-                    }
-                    if let Some(w) = walls {
-                        g = w.stop(g);
-                    }
-                    *y = wrap_world(&vd, vd.world_of(g));
-                }
-            });
+        step_group(&mut [self], input);
     }
 
     /// `R(ξ) += Δt · mean_{2×2×2} S(Y(ξ) + o)`.
-    fn inject(&mut self, dt: f32) {
+    fn inject(&mut self, lattice: &VectorGrid, dt: f32) {
         let Some(source) = &self.source else {
             return;
         };
         let md = *self.map_domain();
         let slab = md.dims[0] * md.dims[1];
-        let lattice = self.lattice.as_vec3();
         Arc::make_mut(&mut self.field.reference)
             .as_slice_mut()
             .par_chunks_mut(slab)
-            .zip(lattice.par_chunks(slab))
+            .zip(lattice.as_vec3().par_chunks(slab))
             .for_each_init(
                 || (Vec::new(), Vec::new()),
                 |(points, values), (r, ys)| {
@@ -388,9 +511,10 @@ impl Selma {
             );
     }
 
-    /// Re-anchor: `R ←` the 2×2×2 box average of the current density over
-    /// each map cell, `X ←` identity, lattice at rest, `ρ₀` dropped.
-    fn restart(&mut self) {
+    /// Re-anchor the reference: `R ←` the 2×2×2 box average of the current
+    /// density over each map cell, `ρ₀` dropped (the map is reset by its
+    /// owner after every gas sharing it has re-anchored).
+    fn reanchor(&mut self) {
         let md = *self.map_domain();
         let slab = md.dims[0] * md.dims[1];
         let fresh = self
@@ -416,14 +540,40 @@ impl Selma {
             );
         std::mem::swap(Arc::make_mut(&mut self.field.reference), fresh);
         self.field.initial = None;
-        Arc::make_mut(&mut self.field.disp).as_slice_mut().fill(0.0);
-        reset_lattice(&mut self.lattice);
         self.restarts += 1;
     }
 
-    /// Evaluate `ρ₀∘X + R∘X` at every velocity cell centre (the buoyancy input).
+    /// Evaluate `ρ₀∘X + R∘X` at every velocity cell centre (the buoyancy
+    /// input). When the map grid is the velocity grid its nodes are these
+    /// centres, and `X = x + D` is read off the lattice, not interpolated.
     pub fn evaluate_centres(&mut self) {
-        self.centres.write_field(&self.field);
+        let d = *self.centres.domain();
+        let field = &self.field;
+        let md = *field.disp.domain();
+        let slab = d.dims[0] * d.dims[1];
+        let disp = field.disp.as_vec3();
+        self.centres
+            .as_slice_mut()
+            .par_chunks_mut(slab)
+            .enumerate()
+            .for_each_init(
+                || (Vec::new(), Vec::new()),
+                |(centres, xi): &mut (Vec<Vec3>, Vec<Vec3>), (k, out)| {
+                    d.slab_centers(k, centres);
+                    xi.clear();
+                    if md == d {
+                        let nodes = &disp[k * slab..(k + 1) * slab];
+                        xi.extend(
+                            (centres.iter().zip(nodes)).map(|(&p, &dv)| wrap_world(&md, p + dv)),
+                        );
+                    } else {
+                        xi.resize(centres.len(), Vec3::ZERO);
+                        field.map_batch(centres, xi);
+                    }
+                    field.at_reference(xi, out);
+                    field.clear_inside(centres, out);
+                },
+            );
     }
 
     /// The density at the velocity cell centres as of the last [`Self::evaluate_centres`].
@@ -436,68 +586,183 @@ impl Selma {
         &self.field
     }
 
-    /// Every buffer held (see [`super::DensityModel::buffers`]).
+    /// Every buffer held (see [`super::DensityModel::buffers`]); a shared
+    /// map's `D` is listed by every gas sharing it (same address, counted
+    /// once), its spare and lattice by its owner.
     pub fn buffers(&self, out: &mut Vec<Buffer>) {
         out.push(Buffer::of_scalar(&self.centres));
         out.push(Buffer::of_vector(&self.field.disp));
         out.push(Buffer::of_scalar(&self.field.reference));
-        out.push(Buffer::of_vector(&self.disp_scratch));
-        out.push(Buffer::of_vector(&self.lattice));
+        if let Some(m) = &self.map {
+            out.push(Buffer::of_vector(&m.spare));
+            out.push(Buffer::of_vector(&m.lattice));
+        }
         out.extend(self.fresh.iter().map(Buffer::of_scalar));
     }
+
     /// What changes as the density steps, for a checkpoint (the scratch
     /// grids are overwritten before they are read; `ρ₀`, the source and the
     /// walls come from the configuration).
     pub fn state(&self) -> SelmaState {
         SelmaState {
-            disp: (*self.field.disp).clone(),
+            map: self.map.as_ref().map(|m| MapState {
+                disp: (*m.disp).clone(),
+                lattice: m.lattice.clone(),
+            }),
             reference: (*self.field.reference).clone(),
-            lattice: self.lattice.clone(),
             composes_initial: self.field.initial.is_some(),
             restarts: self.restarts,
             centres: self.centres.clone(),
         }
     }
 
-    /// Put back what [`Self::state`] returned.
+    /// Put back what [`Self::state`] returned (a state without a map makes
+    /// this gas share the map of the SELMA gas before it).
     ///
     /// # Panics
     /// If a grid is on another domain than this density's.
     pub fn restore(&mut self, state: SelmaState) {
         let md = *self.map_domain();
         assert!(
-            *state.disp.domain() == md
+            state.map.as_ref().map_or(true, |m| *m.disp.domain() == md
+                && *m.lattice.domain() == md)
                 && *state.reference.domain() == md
-                && *state.lattice.domain() == md
                 && state.centres.domain() == self.centres.domain(),
             "selma: checkpoint grids on another domain"
         );
-        self.field.disp = Arc::new(state.disp);
+        self.map = state.map.map(|m| {
+            let mut own = SelmaMap::new(md, self.remap, self.field.walls.clone());
+            own.disp = Arc::new(m.disp);
+            own.lattice = m.lattice;
+            Box::new(own)
+        });
+        if let Some(m) = &self.map {
+            self.field.disp = Arc::clone(&m.disp);
+        }
         self.field.reference = Arc::new(state.reference);
         if !state.composes_initial {
             self.field.initial = None;
         }
-        self.lattice = state.lattice;
         self.restarts = state.restarts;
         self.centres = state.centres;
     }
 }
 
+/// One step of SELMA gases in a fixed order, sharing maps: a gas whose map
+/// is, to the bit and with the same settings, the map of the nearest earlier
+/// gas that has one gives its own up and shares that one (so the gases of a
+/// run, built alike and moved by one velocity, share a map from their first
+/// step; a gas added later with another map keeps it). Then per map: advect
+/// it (eq 8.8) and move its lattice once, inject every sharing gas's source,
+/// and, when the lattice has deformed by more than the threshold,
+/// re-anchor every sharing gas's reference against the current map before
+/// resetting the map. Each gas gets the numbers it would get alone.
+///
+/// # Panics
+/// If the first gas shares a map (no earlier gas has one).
+pub fn step_group(gases: &mut [&mut Selma], input: &StepInput<'_>) {
+    let mut owner = None;
+    for n in 0..gases.len() {
+        let Some(map) = &gases[n].map else { continue };
+        let shared = owner
+            .and_then(|o: usize| gases[o].map.as_deref())
+            .filter(|shared| shared.same_as(map))
+            .map(|shared| Arc::clone(&shared.disp));
+        match shared {
+            Some(disp) => {
+                gases[n].map = None;
+                gases[n].field.disp = disp;
+            }
+            None => owner = Some(n),
+        }
+    }
+    let mut start = 0;
+    while start < gases.len() {
+        let len = 1 + gases[start + 1..]
+            .iter()
+            .take_while(|g| g.map.is_none())
+            .count();
+        step_shared(&mut gases[start..start + len], input);
+        start += len;
+    }
+}
+
+/// [`step_group`] for one map: `gases[0]` owns it, the others share it.
+fn step_shared(gases: &mut [&mut Selma], input: &StepInput<'_>) {
+    let mut map = gases[0]
+        .map
+        .take()
+        .expect("the first SELMA gas of a group owns its map");
+    map.advect(input);
+    map.track_lattice(input);
+    for g in gases.iter_mut() {
+        g.field.disp = Arc::clone(&map.disp);
+        g.inject(&map.lattice, input.dt);
+    }
+    if map.remap > 0.0 && map.deformation() > map.remap {
+        for g in gases.iter_mut() {
+            g.reanchor();
+        }
+        map.reset();
+        for g in gases.iter_mut() {
+            g.field.disp = Arc::clone(&map.disp);
+        }
+    }
+    gases[0].map = Some(map);
+}
+
 /// The evolving part of a [`Selma`] density ([`Selma::state`]).
 #[derive(Clone, Debug)]
 pub struct SelmaState {
-    /// The map's displacement `D = X − x`.
-    pub disp: VectorGrid,
+    /// The map and lattice, if this gas owns them (`None`: it shares the
+    /// map of the SELMA gas before it).
+    pub map: Option<MapState>,
     /// `R(ξ)`, the density in reference coordinates.
     pub reference: ScalarGrid,
-    /// The tracked lattice `Y(ξ)`.
-    pub lattice: VectorGrid,
     /// Whether `ρ₀` is still composed (no re-anchoring yet).
     pub composes_initial: bool,
     /// Re-anchorings so far.
     pub restarts: usize,
     /// The density at the velocity grid's cell centres.
     pub centres: ScalarGrid,
+}
+
+/// The evolving part of a [`SelmaMap`].
+#[derive(Clone, Debug)]
+pub struct MapState {
+    /// The map's displacement `D = X − x`.
+    pub disp: VectorGrid,
+    /// The tracked lattice `Y(ξ)`.
+    pub lattice: VectorGrid,
+}
+
+/// Replace every grid-coordinate point of `g` by its departure point
+/// through `u` over `dt_cells = Δt/Δx` ([`departure_point`], unwrapped):
+/// eight at a time through the AVX2 kernel ([`simd::points8`], the gridless
+/// walk's) when the CPU has it, the lanes whose stencils leave the
+/// lattices, the remainder and RK3 one by one — the same operations in the
+/// same order, so the same bits on any CPU.
+fn trace_batch(u: &FaceGrid, g: &mut [Vec3], dt_cells: f32, bt: Backtrace) {
+    let one = |p: &mut Vec3| *p = departure_point(u, *p, dt_cells, bt);
+    #[cfg(target_arch = "x86_64")]
+    if let Some(lat) = simd::lattices(u.sampler()) {
+        let mut groups = g.chunks_exact_mut(8);
+        for group in &mut groups {
+            let points: &[Vec3; 8] = (&*group).try_into().expect("groups of eight");
+            // SAFETY: `lattices` checked AVX2 and the lattice sizes.
+            let (p, outside) = unsafe { simd::points8(lat, points, dt_cells, bt) };
+            for (l, (gi, pi)) in group.iter_mut().zip(p).enumerate() {
+                if outside & (1 << l) == 0 {
+                    *gi = pi;
+                } else {
+                    one(gi);
+                }
+            }
+        }
+        groups.into_remainder().iter_mut().for_each(one);
+        return;
+    }
+    g.iter_mut().for_each(one);
 }
 
 /// The 2×2×2 sub-points of a map cell around each of `centres`, wrapped
@@ -560,7 +825,7 @@ mod tests {
         s.step(&input);
         // B(Y(ξ)) = ξ: moving forward then back returns every node home.
         let mut worst = 0.0f32;
-        for (n, y) in s.lattice.as_vec3().iter().enumerate() {
+        for (n, y) in s.map.as_ref().unwrap().lattice.as_vec3().iter().enumerate() {
             let (i, j, k) = (n % 16, (n / 16) % 16, n / 256);
             let back = departure_point(&u, d.grid_coords(*y), dt / d.cell, bt);
             let home = Vec3::new(i as f32, j as f32, k as f32);
@@ -599,10 +864,56 @@ mod tests {
         s.step(&input);
         assert_eq!(s.restarts(), 2);
         assert!(s.field.disp.as_slice().iter().all(|&v| v == 0.0));
-        assert_eq!(s.lattice_deformation(), 0.0);
+        assert_eq!(s.lattice_deformation(), Some(0.0));
         // Two steps of a 1.5-radius sphere at rate 1: mass ≈ 2 Δt (4/3)π 1.5³.
         let mass = s.field.reference.total();
         let expect = 2.0 * 0.4 * 4.0 / 3.0 * std::f64::consts::PI * 1.5f64.powi(3);
         assert!((mass - expect).abs() < 0.03 * expect, "{mass} vs {expect}");
+    }
+
+    #[test]
+    fn gases_sharing_a_map_get_the_bits_they_get_alone() {
+        let u = velocity();
+        let d = *u.domain();
+        let input = StepInput {
+            velocity: &u,
+            snapshot: None,
+            dt: 0.4,
+            backtrace: Backtrace::Rk2,
+        };
+        let gas = |c: f32| {
+            let source = crate::field::ops::mask(crate::field::ops::sphere(Vec3::splat(c), 1.5));
+            Selma::new(d, d, None, Some(source), 0.5)
+        };
+        let (mut a, mut b) = (gas(3.0), gas(5.0));
+        let (mut alone_a, mut alone_b) = (a.clone(), b.clone());
+        for _ in 0..6 {
+            step_group(&mut [&mut a, &mut b], &input);
+            alone_a.step(&input);
+            alone_b.step(&input);
+        }
+        // One map, owned by the first gas, shared by the second.
+        assert!(a.owns_map() && !b.owns_map());
+        assert!(Arc::ptr_eq(&a.field.disp, &b.field.disp));
+        // Re-anchored together (the swirl deforms the lattice past 0.5
+        // cells within the six steps), each gas to the bit as alone.
+        assert!(a.restarts() > 0 && a.restarts() == b.restarts());
+        assert_eq!(a.restarts(), alone_a.restarts());
+        let bits = |g: &ScalarGrid| g.as_slice().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+        for (shared, alone) in [(&mut a, &mut alone_a), (&mut b, &mut alone_b)] {
+            shared.evaluate_centres();
+            alone.evaluate_centres();
+            assert_eq!(bits(&shared.field.reference), bits(&alone.field.reference));
+            assert_eq!(bits(&shared.centres), bits(&alone.centres));
+            assert!(shared.centres.total() > 0.0);
+        }
+        // The second gas holds no map of its own: its buffers beyond the
+        // shared displacement are its reference, scratch and cache.
+        let bytes = |g: &Selma| {
+            let mut v = Vec::new();
+            g.buffers(&mut v);
+            super::super::total_bytes(v)
+        };
+        assert!(bytes(&b) < bytes(&alone_b));
     }
 }
