@@ -10,7 +10,9 @@
 //! reference's bits; the departure points agree to 1e-6 of the largest speed.
 
 use glam::Vec3;
-use smokelab::advection::{advect_faces, advect_fused, advect_scalar, Backtrace, Departures};
+use smokelab::advection::{
+    advect_faces, advect_fused, advect_scalar, departure_point, Backtrace, Departures,
+};
 use smokelab::domain::Domain;
 use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid, Stencil};
 
@@ -155,12 +157,13 @@ fn cell_departures_match_the_general_stencil() {
     }
 }
 
-/// The fused sweep (departures traced and densities sampled eight cells at
-/// a time by the AVX2 kernels where they apply) against the unfused scalar
-/// path (`Departures::trace` then a `Stencil` per cell): the same bits for
-/// every density, box kind, speed and backtrace. Rows of 37 cells exercise
-/// full groups of eight and the scalar tail; the fast speed sends many
-/// departure points across the seam or into the walls.
+/// The fused sweep and `advect_scalar` (departures traced and densities
+/// sampled eight cells at a time by the AVX2 kernels where they apply)
+/// against one cell at a time through the scalar public API
+/// (`departure_point`, then a `Stencil`): the same bits for every density,
+/// box kind, speed and backtrace. Rows of 37 cells exercise full groups of
+/// eight, the overlapping last group and the scalar edges; the fast speed
+/// sends many departure points across the seam or into the walls.
 #[test]
 fn fused_densities_match_the_scalar_sweep_to_the_bit() {
     let d = Domain::new(Vec3::ZERO, 1.0, [37, 11, 10]).unwrap();
@@ -181,15 +184,27 @@ fn fused_densities_match_the_scalar_sweep_to_the_bit() {
             let mut vel_out = FaceGrid::zeros(d, kind);
             advect_fused(&vel, 0.7, bt, &srcs, &mut dsts, &mut vel_out);
             for (src, got) in densities.iter().zip(&fused) {
-                let mut want = src.clone();
-                advect_scalar(src, &vel, 0.7, bt, &mut want);
-                let differ = got
-                    .as_slice()
-                    .iter()
-                    .zip(want.as_slice())
-                    .filter(|(a, b)| a.to_bits() != b.to_bits())
-                    .count();
-                assert_eq!(differ, 0, "{kind} {speed} {bt:?}: {differ} cells differ");
+                let mut unfused = src.clone();
+                advect_scalar(src, &vel, 0.7, bt, &mut unfused);
+                let [nx, ny, _] = d.dims;
+                let want = |n: usize| {
+                    let c = Vec3::new(
+                        (n % nx) as f32,
+                        (n / nx % ny) as f32,
+                        (n / (nx * ny)) as f32,
+                    );
+                    let g = departure_point(&vel, c, 0.7 / d.cell, bt);
+                    Stencil::new(g, d.dims, src.wrap()).apply(src.as_slice())
+                };
+                for (name, got) in [("fused", got), ("unfused", &unfused)] {
+                    let differ = (got.as_slice().iter().enumerate())
+                        .filter(|&(n, v)| v.to_bits() != want(n).to_bits())
+                        .count();
+                    assert_eq!(
+                        differ, 0,
+                        "{name} {kind} {speed} {bt:?}: {differ} cells differ"
+                    );
+                }
             }
         }
     }

@@ -75,21 +75,22 @@ impl Departures {
             &self.domain,
             "departures: velocity on another domain"
         );
-        let dt_cells = dt / self.domain.cell;
         let [nx, ny, _] = self.domain.dims;
-        let sampler = vel.sampler();
+        let trace = RowTrace::new(vel, dt, backtrace);
         self.points
             .par_chunks_mut(nx * ny)
             .enumerate()
-            .for_each(|(k, out)| {
-                for j in 0..ny {
-                    for i in 0..nx {
-                        let c = Vec3::new(i as f32, j as f32, k as f32);
-                        let u0 = sampler.at_cell([i, j, k]);
-                        out[j * nx + i] = departure(sampler, c, u0, dt_cells, backtrace);
+            .for_each_init(
+                || [vec![0.0f32; nx], vec![0.0f32; nx], vec![0.0f32; nx]],
+                |lanes, (k, out)| {
+                    for (j, row) in out.chunks_exact_mut(nx).enumerate() {
+                        trace.row(j, k, lanes);
+                        for (i, p) in row.iter_mut().enumerate() {
+                            *p = point(lanes, i);
+                        }
                     }
-                }
-            });
+                },
+            );
     }
 }
 
@@ -141,14 +142,23 @@ pub fn interpolate_scalar(src: &ScalarGrid, dep: &Departures, dst: &mut ScalarGr
         "interpolate_scalar: target on another domain"
     );
     let (data, wrap) = (src.as_slice(), src.wrap());
+    #[cfg(target_arch = "x86_64")]
+    let avx2 = simd::fits(d.dims);
+    #[cfg(not(target_arch = "x86_64"))]
+    let avx2 = false;
+    let nx = d.dims[0];
     dst.as_slice_mut()
-        .par_chunks_mut(4096)
-        .zip(dep.points.par_chunks(4096))
-        .for_each(|(out, pts)| {
-            for (o, &g) in out.iter_mut().zip(pts) {
-                *o = Stencil::new(g, d.dims, wrap).apply(data);
-            }
-        });
+        .par_chunks_mut(nx)
+        .zip(dep.points.par_chunks(nx))
+        .for_each_init(
+            || [vec![0.0f32; nx], vec![0.0f32; nx], vec![0.0f32; nx]],
+            |lanes, (out, row)| {
+                for (i, &g) in row.iter().enumerate() {
+                    set_point(lanes, i, g);
+                }
+                sample_row(avx2, data, (d.dims, wrap), lanes, out);
+            },
+        );
 }
 
 /// `dst = src(x − ∫u dt)`: advect a scalar grid by `vel` over `dt` (eq 6.4
@@ -296,8 +306,6 @@ pub fn advect_fused(
     }
     let [nx, ny, _] = d.dims;
     let slab = nx * ny;
-    let dt_cells = dt / d.cell;
-    let sampler = vel.sampler();
     let src: Vec<(&[f32], Wrap)> = srcs.iter().map(|g| (g.as_slice(), g.wrap())).collect();
     // Split every target into z-slabs and regroup them per slab.
     let mut slabs: Vec<Vec<&mut [f32]>> = (0..d.dims[2])
@@ -309,77 +317,134 @@ pub fn advect_fused(
         }
     }
     // One row at a time: trace the row's departure points into `points`
-    // (x, y, z lanes), eight cells at once where the AVX2 kernel applies,
-    // then sweep each density through them, eight at once where their
-    // stencils lie inside the grid. Scalar paths do the same operations.
-    #[cfg(target_arch = "x86_64")]
-    let simd = simd::lattices(sampler);
-    let cells = d.dims;
-    let scalar_point = |c: [usize; 3]| {
-        let g = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32);
-        departure(sampler, g, sampler.at_cell(c), dt_cells, backtrace)
-    };
+    // (x, y, z lanes), then sweep each density through them.
+    let trace = RowTrace::new(vel, dt, backtrace);
     slabs.into_par_iter().enumerate().for_each_init(
         || [vec![0.0f32; nx], vec![0.0f32; nx], vec![0.0f32; nx]],
         |points, (k, mut outs)| {
             for j in 0..ny {
-                let row = j * nx..(j + 1) * nx;
-                // Cells 1 … in groups of eight while their upper faces are
-                // inside the lattices (`i + 8 < m_x` of u, `j + 1 < m_y` of
-                // v, `k + 1 < m_z` of w), where the RK2 midpoints' stencils
-                // stay inside; the rest one by one.
-                let mut covered = 0..0;
-                #[cfg(target_arch = "x86_64")]
-                if let Some(lat) = simd.filter(|l| j + 1 < l.dims[1][1] && k + 1 < l.dims[2][2]) {
-                    covered = eight_wide(1, (lat.dims[0][0] - 1).min(nx));
-                    for i in group_starts(covered.clone()) {
-                        let [px, py, pz] = &mut *points;
-                        let lanes = [&mut px[i..], &mut py[i..], &mut pz[i..]];
-                        // SAFETY: AVX2 and lattice sizes checked by
-                        // simd::lattices; the cells' upper faces are inside
-                        // (as above), and every lane slice holds eight.
-                        let traced =
-                            unsafe { simd::cells8(lat, [i, j, k], dt_cells, backtrace, lanes) };
-                        if !traced {
-                            for i in i..i + 8 {
-                                set_point(points, i, scalar_point([i, j, k]));
-                            }
-                        }
-                    }
-                }
-                for i in (0..covered.start).chain(covered.end..nx) {
-                    set_point(points, i, scalar_point([i, j, k]));
-                }
-                for ((data, wrap), out) in src.iter().zip(outs.iter_mut()) {
-                    let out = &mut out[row.clone()];
-                    let scalar = |i| Stencil::new(point(points, i), cells, *wrap).apply(data);
-                    // Cells 1 … n_x − 2 in groups of eight where their
-                    // stencils lie inside the grid (the edge cells' rarely
-                    // do); the rest one by one.
-                    let mut covered = 0..0;
-                    #[cfg(target_arch = "x86_64")]
-                    if simd.is_some() {
-                        covered = eight_wide(1, nx - 1);
-                        for i in group_starts(covered.clone()) {
-                            let [px, py, pz] = &*points;
-                            let g = [&px[i..], &py[i..], &pz[i..]];
-                            // SAFETY: AVX2 checked by simd::lattices; the
-                            // cell grid is smaller than w's lattice, which fits.
-                            let sampled = unsafe { simd::sample8(data, cells, g, &mut out[i..]) };
-                            if !sampled {
-                                for (n, o) in out[i..i + 8].iter_mut().enumerate() {
-                                    *o = scalar(i + n);
-                                }
-                            }
-                        }
-                    }
-                    for i in (0..covered.start).chain(covered.end..nx) {
-                        out[i] = scalar(i);
-                    }
+                trace.row(j, k, points);
+                for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
+                    let out = &mut out[j * nx..(j + 1) * nx];
+                    sample_row(trace.avx2(), data, (d.dims, wrap), points, out);
                 }
             }
         },
     );
+}
+
+/// The backtrace of the cell centres of one row at a time (eqs 6.4–6.5),
+/// shared by [`advect_fused`], [`Departures::trace`] and
+/// [`interpolate_scalar`]: eight cells at once through the AVX2 kernels
+/// ([`simd::cells8`], [`simd::sample8`]) where they apply, the scalar
+/// [`departure`] and [`Stencil`] elsewhere — the same operations, so the
+/// same bits.
+#[derive(Clone, Copy)]
+struct RowTrace<'a> {
+    sampler: FaceSampler<'a>,
+    #[cfg(target_arch = "x86_64")]
+    simd: Option<simd::Lattices<'a>>,
+    cells: [usize; 3],
+    dt_cells: f32,
+    backtrace: Backtrace,
+}
+
+impl<'a> RowTrace<'a> {
+    fn new(vel: &'a FaceGrid, dt: f32, backtrace: Backtrace) -> Self {
+        let sampler = vel.sampler();
+        Self {
+            sampler,
+            #[cfg(target_arch = "x86_64")]
+            simd: simd::lattices(sampler),
+            cells: vel.domain().dims,
+            dt_cells: dt / vel.domain().cell,
+            backtrace,
+        }
+    }
+
+    /// The departure points of the cell centres of row `(j, k)` into
+    /// `points` (x, y, z lanes, each at least a row long).
+    fn row(&self, j: usize, k: usize, points: &mut [Vec<f32>; 3]) {
+        let nx = self.cells[0];
+        let scalar = |i: usize| {
+            let g = Vec3::new(i as f32, j as f32, k as f32);
+            let u0 = self.sampler.at_cell([i, j, k]);
+            departure(self.sampler, g, u0, self.dt_cells, self.backtrace)
+        };
+        // Cells 1 … in groups of eight while their upper faces are inside
+        // the lattices (`i + 8 < m_x` of u, `j + 1 < m_y` of v, `k + 1 <
+        // m_z` of w), where the RK2 midpoints' stencils stay inside; the
+        // rest one by one.
+        let mut covered = 0..0;
+        #[cfg(target_arch = "x86_64")]
+        if let Some(lat) = self
+            .simd
+            .filter(|l| j + 1 < l.dims[1][1] && k + 1 < l.dims[2][2])
+        {
+            covered = eight_wide(1, (lat.dims[0][0] - 1).min(nx));
+            for i in group_starts(covered.clone()) {
+                let [px, py, pz] = &mut *points;
+                let lanes = [&mut px[i..], &mut py[i..], &mut pz[i..]];
+                // SAFETY: AVX2 and lattice sizes checked by simd::lattices;
+                // the cells' upper faces are inside (as above), and every
+                // lane slice holds eight.
+                let traced =
+                    unsafe { simd::cells8(lat, [i, j, k], self.dt_cells, self.backtrace, lanes) };
+                if !traced {
+                    for i in i..i + 8 {
+                        set_point(points, i, scalar(i));
+                    }
+                }
+            }
+        }
+        for i in (0..covered.start).chain(covered.end..nx) {
+            set_point(points, i, scalar(i));
+        }
+    }
+
+    /// Whether the AVX2 kernels apply to this velocity's grids.
+    fn avx2(&self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        return self.simd.is_some();
+        #[cfg(not(target_arch = "x86_64"))]
+        false
+    }
+}
+
+/// `data` (a cell-centred grid of `cells`, `wrap`ped) interpolated at a
+/// row's departure points `points` ([`RowTrace::row`]) into `out` (one
+/// row), eight at a time through [`simd::sample8`] if `avx2` (the CPU has
+/// it and the grid fits, [`simd::fits`]).
+fn sample_row(
+    avx2: bool,
+    data: &[f32],
+    (cells, wrap): ([usize; 3], Wrap),
+    points: &[Vec<f32>; 3],
+    out: &mut [f32],
+) {
+    let scalar = |i| Stencil::new(point(points, i), cells, wrap).apply(data);
+    // Cells 1 … n_x − 2 in groups of eight where their stencils lie inside
+    // the grid (the edge cells' rarely do); the rest one by one.
+    let mut covered = 0..0;
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        covered = eight_wide(1, cells[0] - 1);
+        for i in group_starts(covered.clone()) {
+            let [px, py, pz] = points;
+            let g = [&px[i..], &py[i..], &pz[i..]];
+            // SAFETY: the caller checked AVX2 and that the grid fits.
+            if !unsafe { simd::sample8(data, cells, g, &mut out[i..]) } {
+                for (n, o) in out[i..i + 8].iter_mut().enumerate() {
+                    *o = scalar(i + n);
+                }
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = avx2;
+    for i in (0..covered.start).chain(covered.end..out.len()) {
+        out[i] = scalar(i);
+    }
 }
 
 /// `first..end` if it holds a group of eight, else `0..0`: the points of a

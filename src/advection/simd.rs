@@ -37,10 +37,17 @@ pub(crate) struct Lattices<'a> {
 /// `None` otherwise (scalar paths only).
 pub(crate) fn lattices(vel: FaceSampler) -> Option<Lattices> {
     let (data, dims) = vel.lattices();
-    let fits = dims
-        .iter()
-        .all(|d| d.iter().all(|&m| m >= 2) && d[0] * d[1] * d[2] < i32::MAX as usize / 2);
-    (is_x86_feature_detected!("avx2") && fits).then_some(Lattices { data, dims })
+    dims.iter()
+        .all(|&d| fits(d))
+        .then_some(Lattices { data, dims })
+}
+
+/// Whether this CPU has AVX2 and a lattice (or cell grid) of `dims` fits
+/// the kernels: at least 2 along each axis, indices within `i32`.
+pub(crate) fn fits(dims: [usize; 3]) -> bool {
+    is_x86_feature_detected!("avx2")
+        && dims.iter().all(|&m| m >= 2)
+        && dims[0] * dims[1] * dims[2] < i32::MAX as usize / 2
 }
 
 /// `⌊g⌋` per lane (0 where it is outside) and `g − ⌊g⌋`, and the lanes
