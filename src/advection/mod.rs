@@ -24,7 +24,8 @@ use crate::domain::Domain;
 use crate::grid::{FaceGrid, ScalarGrid};
 pub use quick::{CflError, Limiter, Quick, QuickOptions};
 pub use semi_lagrangian::{
-    advect_faces, advect_fused, advect_scalar, departure_point, interpolate_scalar, Departures,
+    advect_faces, advect_fused, advect_scalar, departure_point, departure_points,
+    interpolate_scalar, Departures,
 };
 
 /// How the departure point `x − ∫u dt` of a semi-Lagrangian step is traced.

@@ -60,9 +60,7 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use super::{wrap_grid, Buffer, StepInput};
-#[cfg(target_arch = "x86_64")]
-use crate::advection::simd;
-use crate::advection::{departure_point, Backtrace};
+use crate::advection::{departure_points, Backtrace};
 use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
@@ -77,39 +75,14 @@ struct PastStep {
 }
 
 impl PastStep {
-    /// Move grid coordinates `g` back through this step (its backtrace),
-    /// wrapped into the box.
-    ///
-    /// Eight points at a time go through the AVX2 kernel
-    /// ([`crate::advection::simd::points8`]) when the CPU has it; the points of a group whose stencils leave the
-    /// lattices, the remainder and RK3 take [`departure_point`] one by one.
-    /// Both do the same floating-point operations in the same order, so the
-    /// walk is the same to the bit on any CPU.
+    /// Move grid coordinates `g` back through this step (its backtrace,
+    /// [`departure_points`]: the AVX2 kernel eight at a time, the same bits
+    /// on any CPU), wrapped into the box.
     fn walk_back(&self, d: &Domain, g: &mut [Vec3]) {
-        let dt_cells = self.dt / d.cell;
-        let u = &*self.velocity;
-        let one = |p: &mut Vec3| {
-            *p = wrap_grid(departure_point(u, *p, dt_cells, self.backtrace), d.dims);
-        };
-        #[cfg(target_arch = "x86_64")]
-        if let Some(lat) = simd::lattices(u.sampler()) {
-            let mut groups = g.chunks_exact_mut(8);
-            for group in &mut groups {
-                let points: &[Vec3; 8] = (&*group).try_into().expect("groups of eight");
-                // SAFETY: `lattices` checked AVX2 and the lattice sizes.
-                let (p, outside) = unsafe { simd::points8(lat, points, dt_cells, self.backtrace) };
-                for (l, (gi, pi)) in group.iter_mut().zip(p).enumerate() {
-                    if outside & (1 << l) == 0 {
-                        *gi = wrap_grid(pi, d.dims);
-                    } else {
-                        one(gi);
-                    }
-                }
-            }
-            groups.into_remainder().iter_mut().for_each(one);
-            return;
+        departure_points(&self.velocity, g, self.dt / d.cell, self.backtrace);
+        for p in g {
+            *p = wrap_grid(*p, d.dims);
         }
-        g.iter_mut().for_each(one);
     }
 }
 

@@ -101,13 +101,11 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::{wrap_world, Buffer, StepInput};
-#[cfg(target_arch = "x86_64")]
-use crate::advection::simd;
-use crate::advection::{departure_point, Backtrace};
+use crate::advection::departure_points;
 use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
-use crate::grid::{FaceGrid, ScalarGrid, VectorGrid};
+use crate::grid::{ScalarGrid, VectorGrid};
 
 /// Corrector iterations of the forward (inverse-backtrace) step of the
 /// tracked lattice, after the predictor.
@@ -264,7 +262,7 @@ impl SelmaMap {
     }
 
     /// Eq 8.8 on the displacement: `D_n(x) = (B_n(x) − x) + D_{n−1}(B_n(x))`,
-    /// eight map nodes traced at a time ([`trace_batch`]).
+    /// eight map nodes traced at a time ([`departure_points`]).
     fn advect(&mut self, input: &StepInput<'_>) {
         let md = *self.domain();
         let vd = *input.velocity.domain();
@@ -294,7 +292,7 @@ impl SelmaMap {
                     };
                 }
                 let mut deps = starts;
-                trace_batch(u, &mut deps[..out.len()], dt_cells, bt);
+                departure_points(u, &mut deps[..out.len()], dt_cells, bt);
                 for (n, ((o, &dep), &c)) in out.iter_mut().zip(&deps).zip(&starts).enumerate() {
                     let dep = walls.map_or(dep, |w| w.stop(dep));
                     *o = if same {
@@ -314,7 +312,7 @@ impl SelmaMap {
 
     /// Move every lattice node by the inverse of the step's backtrace:
     /// solve `B(y') = y` by `y' ← y + (y' − B(y'))` from the predictor
-    /// `y' = y + (y − B(y))`, eight nodes traced at a time ([`trace_batch`]).
+    /// `y' = y + (y − B(y))`, eight nodes traced at a time ([`departure_points`]).
     fn track_lattice(&mut self, input: &StepInput<'_>) {
         let vd = *input.velocity.domain();
         let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
@@ -333,7 +331,7 @@ impl SelmaMap {
                     let mut g = g0;
                     for _ in 0..=FORWARD_ITERATIONS {
                         let mut back = g;
-                        trace_batch(u, &mut back[..n], dt_cells, bt);
+                        departure_points(u, &mut back[..n], dt_cells, bt);
                         for ((g, &g0), &b) in g.iter_mut().zip(&g0).zip(&back).take(n) {
                             *g = g0 + (*g - b);
                         }
@@ -736,35 +734,6 @@ pub struct MapState {
     pub lattice: VectorGrid,
 }
 
-/// Replace every grid-coordinate point of `g` by its departure point
-/// through `u` over `dt_cells = Δt/Δx` ([`departure_point`], unwrapped):
-/// eight at a time through the AVX2 kernel ([`simd::points8`], the gridless
-/// walk's) when the CPU has it, the lanes whose stencils leave the
-/// lattices, the remainder and RK3 one by one — the same operations in the
-/// same order, so the same bits on any CPU.
-fn trace_batch(u: &FaceGrid, g: &mut [Vec3], dt_cells: f32, bt: Backtrace) {
-    let one = |p: &mut Vec3| *p = departure_point(u, *p, dt_cells, bt);
-    #[cfg(target_arch = "x86_64")]
-    if let Some(lat) = simd::lattices(u.sampler()) {
-        let mut groups = g.chunks_exact_mut(8);
-        for group in &mut groups {
-            let points: &[Vec3; 8] = (&*group).try_into().expect("groups of eight");
-            // SAFETY: `lattices` checked AVX2 and the lattice sizes.
-            let (p, outside) = unsafe { simd::points8(lat, points, dt_cells, bt) };
-            for (l, (gi, pi)) in group.iter_mut().zip(p).enumerate() {
-                if outside & (1 << l) == 0 {
-                    *gi = pi;
-                } else {
-                    one(gi);
-                }
-            }
-        }
-        groups.into_remainder().iter_mut().for_each(one);
-        return;
-    }
-    g.iter_mut().for_each(one);
-}
-
 /// The 2×2×2 sub-points of a map cell around each of `centres`, wrapped
 /// into the box, eight per centre.
 fn sub_points(md: &Domain, centres: &[Vec3], out: &mut Vec<Vec3>) {
@@ -793,7 +762,7 @@ fn reset_lattice(lattice: &mut VectorGrid) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::advection::{Backtrace, Departures};
+    use crate::advection::{departure_point, Backtrace, Departures};
     use crate::grid::{BoxKind, FaceGrid};
 
     /// A shear-and-swirl velocity on a 16³ box of edge 8.
