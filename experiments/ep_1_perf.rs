@@ -20,6 +20,13 @@
 //!   five written: the three velocity components and the two gases),
 //!   measured as five parallel copies; and the ratio step ÷ floor (issue
 //!   16's target ≤ 2 at 128³);
+//! - **metrics**: what `smokelab run` measures after a step, on the same
+//!   state: the per-step measures (`run::StepMeasures`: velocity mirror and
+//!   max, compact divergence, the interpolant at 4096 points, the gases'
+//!   mirror) and the fine measures of every `metrics_every` steps
+//!   (`run::fine_measures`: each gas at 2×, the top-octave share); the
+//!   per-step measures ÷ step (issue 16's target ≤ 5 % at 128³) and the
+//!   run's metrics at the default cadence (`metrics_every` = 10) ÷ step;
 //! - **peers** (`--peers PYTHON`): `taichi_advect.py N 2 f32` and
 //!   `fft_py.py N 2` from `../shared/peers/` (or `$SMOKELAB_PEERS_DIR`) at
 //!   the same sizes in the same run, each right after smokelab's at that
@@ -33,8 +40,8 @@
 //! 2-thread Euler, FFT pairs, bandwidth pass — is interleaved, so a busy
 //! machine slows all of them alike; the ratios are the result, the
 //! absolute times depend on the load (`/proc/loadavg` before and after is
-//! in the manifest). Only the step is timed: the run driver's metrics and
-//! outputs are not part of `Simulation::step`, and the setup of each
+//! in the manifest). The step times are `Simulation::step` alone: the run
+//! driver's metrics (timed apart, above) and outputs are not in them, and the setup of each
 //! resolution (the sources' cell averages, the FFT plans; slow at 256³) is
 //! timed apart as `setup_s`.
 //!
@@ -60,12 +67,15 @@ use rustfft::{Fft, FftPlanner};
 
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style};
 use crate::registry::{Context, Experiment, Size};
+use crate::run::{fine_measures, StepMeasures, PROBE_POINTS};
 use crate::table::write_columns;
 use smokelab::advection::Backtrace;
+use smokelab::density::probe::DensityProbe;
 use smokelab::error::InputError;
 use smokelab::fit::linear_fit;
 use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::io::{self, manifest::Manifest};
+use smokelab::metrics::{self, SpectralShare};
 use smokelab::pressure::PressureSolver;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::{Scenario, SolverConfig};
@@ -146,7 +156,8 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
         "load_before": load_before,
         "load_after": load_after,
         "bitwise_equal_1_vs_2_threads": rows.iter().all(|r| r.bitwise_equal),
-        "timed": "Simulation::step only (advect, density, force, project); the run driver's metrics and outputs are not in it; setup_s (sources' cell averages, plans) is timed apart",
+        "timed": "Simulation::step only (advect, density, force, project); the run driver's metrics (metrics_ms: run::StepMeasures, fine_metrics_ms: run::fine_measures) are timed apart on the same state, outputs not at all; setup_s (sources' cell averages, plans) is timed apart",
+        "default_metrics_every": SolverConfig::default().metrics_every,
         "floor": "min(f32 realfft+rustfft pair, the solver's f64 pair) + five f32 array copies (the fused sweep's 5 fields read and written)",
         "peers": match (&peers, &peer_rows) {
             (Some(p), Some(r)) => serde_json::json!({
@@ -200,6 +211,8 @@ struct Row {
     fft_f32_ms: f64,
     fft_solver_ms: f64,
     bandwidth_ms: f64,
+    metrics_ms: f64,
+    fine_ms: f64,
     bitwise_equal: bool,
 }
 
@@ -215,6 +228,18 @@ impl Row {
 
     fn speedup(&self) -> f64 {
         self.step_1t_ms / self.step_ms
+    }
+
+    /// The per-step measures ÷ step.
+    fn metrics_share(&self) -> f64 {
+        self.metrics_ms / self.step_ms
+    }
+
+    /// The run's metrics at the default cadence, per step, ÷ step: the
+    /// per-step measures plus the fine measures every `metrics_every` steps.
+    fn default_metrics_share(&self) -> f64 {
+        let every = SolverConfig::default().metrics_every as f64;
+        (self.metrics_ms + self.fine_ms / every) / self.step_ms
     }
 }
 
@@ -250,8 +275,8 @@ fn same_bits(a: &Simulation, b: &Simulation) -> bool {
 }
 
 /// Set up `res`³, warm up on 2 threads, then time `steps` interleaved
-/// rounds: RK2 on 2 and on 1 thread, Euler on 2, both FFT pairs and the
-/// bandwidth pass on 2.
+/// rounds: RK2 on 2 and on 1 thread, Euler on 2, both FFT pairs, the
+/// bandwidth pass and the run's per-step and fine measures on 2.
 fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]) -> Result<Row> {
     let [one, two] = pools;
     let cfg = config(res);
@@ -275,7 +300,10 @@ fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]
         .for_each(|(i, v)| *v = ((i * 7919) % 1009) as f32 / 1009.0 - 0.5);
     let mut p = ScalarGrid::zeros(domain);
     let mut pass = Bandwidth::new(domain.len());
-    let mut t = [(); 6].map(|_| Vec::with_capacity(steps));
+    let points = metrics::probe_points(&domain, PROBE_POINTS, 1);
+    let mut probe = DensityProbe::new(domain);
+    let mut spectrum = SpectralShare::new(domain.dims);
+    let mut t = [(); 8].map(|_| Vec::with_capacity(steps));
     let mut stages = [(); 4].map(|_| Vec::with_capacity(steps));
     for _ in 0..steps {
         t[0].push(ms(|| two.install(|| double.step())));
@@ -291,6 +319,16 @@ fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]
         t[3].push(ms(|| two.install(|| pair.run())));
         t[4].push(ms(|| two.install(|| solver.solve_poisson(&rhs, &mut p))));
         t[5].push(ms(|| two.install(|| pass.run())));
+        t[6].push(ms(|| {
+            two.install(|| {
+                StepMeasures::take(&double, &points);
+            })
+        }));
+        t[7].push(ms(|| {
+            two.install(|| {
+                fine_measures(&double, &mut probe, &mut spectrum);
+            })
+        }));
     }
     let bitwise_equal = same_bits(&single, &double);
     if !bitwise_equal {
@@ -298,7 +336,7 @@ fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]
             "{res}³: the 1-thread and 2-thread steps differ in some bit after {warm}+{steps} steps"
         );
     }
-    let [step, step_1t, step_euler, fft_f32, fft_solver, bandwidth] = t.map(median);
+    let [step, step_1t, step_euler, fft_f32, fft_solver, bandwidth, metrics, fine] = t.map(median);
     let [advect, density, force, project] = stages.map(median);
     Ok(Row {
         res,
@@ -314,6 +352,8 @@ fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]
         fft_f32_ms: fft_f32,
         fft_solver_ms: fft_solver,
         bandwidth_ms: bandwidth,
+        metrics_ms: metrics,
+        fine_ms: fine,
         bitwise_equal,
     })
 }
@@ -606,6 +646,10 @@ fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()>
         "bandwidth_ms",
         "floor_ms",
         "step_over_floor",
+        "metrics_ms",
+        "fine_metrics_ms",
+        "metrics_over_step",
+        "default_metrics_over_step",
         "bitwise_equal",
     ];
     if peers.is_some() {
@@ -638,6 +682,10 @@ fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()>
                 r.bandwidth_ms,
                 r.floor_ms(),
                 r.step_ms / r.floor_ms(),
+                r.metrics_ms,
+                r.fine_ms,
+                r.metrics_share(),
+                r.default_metrics_share(),
                 f64::from(u8::from(r.bitwise_equal)),
             ];
             if let Some(p) = peers.map(|p| &p[i]) {
@@ -746,19 +794,19 @@ fn plot(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f6
 /// The Markdown table for the README and the paper.
 fn table(rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f64>) -> String {
     let mut s = String::from(
-        "| res | step ms | Mcells/s | 1 thread ms | speed-up | advect | force | project | floor ms | step ÷ floor |",
+        "| res | step ms | Mcells/s | 1 thread ms | speed-up | advect | force | project | floor ms | step ÷ floor | metrics ÷ step | default metrics ÷ step |",
     );
     if peers.is_some() {
         s.push_str(" Euler step ms | peer ms | peer ÷ Euler step |");
     }
-    s.push_str("\n|---|---|---|---|---|---|---|---|---|---|");
+    s.push_str("\n|---|---|---|---|---|---|---|---|---|---|---|---|");
     if peers.is_some() {
         s.push_str("---|---|---|");
     }
     s.push('\n');
     for (i, r) in rows.iter().enumerate() {
         s.push_str(&format!(
-            "| {}³ | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            "| {}³ | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} | {:.1} % | {:.0} % |",
             r.res,
             r.step_ms,
             r.mcells_per_s(),
@@ -768,7 +816,9 @@ fn table(rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f64>) -> Stri
             r.force_ms,
             r.project_ms,
             r.floor_ms(),
-            r.step_ms / r.floor_ms()
+            r.step_ms / r.floor_ms(),
+            100.0 * r.metrics_share(),
+            100.0 * r.default_metrics_share()
         ));
         if let Some(p) = peers.map(|p| &p[i]) {
             s.push_str(&format!(

@@ -28,6 +28,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{bail, Result};
+use glam::Vec3;
 use serde::Serialize;
 
 use crate::checkpoint::{self, RunRecord};
@@ -156,6 +157,49 @@ pub struct Checkpointing {
 /// Fixed random points at which the interpolant's divergence is measured.
 pub const PROBE_POINTS: usize = 4096;
 
+/// The measures taken after every step: one pass over the faces or cells
+/// each, and the interpolant at [`PROBE_POINTS`] points.
+pub struct StepMeasures {
+    /// The velocity's mirror error and `max |u_a|`.
+    pub vel_mirror: metrics::VelocityMirror,
+    /// The compact divergence after projection.
+    pub div: metrics::RmsMax,
+    /// The divergence tracers feel, relative to `|∇u|`.
+    pub div_interp: metrics::RmsMax,
+    /// The two gases' mirror error (two gases only).
+    pub mirror: Option<f32>,
+}
+
+impl StepMeasures {
+    /// Measure `sim`'s current state, the interpolant at `points`.
+    pub fn take(sim: &Simulation, points: &[Vec3]) -> Self {
+        Self {
+            vel_mirror: metrics::velocity_mirror(&sim.velocity),
+            div: metrics::divergence_stats(&sim.velocity),
+            div_interp: metrics::interpolant_divergence(&sim.velocity, sim.domain(), points),
+            mirror: (sim.gases.len() == 2)
+                .then(|| metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density())),
+        }
+    }
+}
+
+/// The measures taken every `metrics_every` steps: each gas sampled at 2×
+/// and measured by `probe`, and the top-octave share of the kinetic energy
+/// (NaN in a closed box, where the periodic spectrum is not defined).
+pub fn fine_measures(
+    sim: &Simulation,
+    probe: &mut DensityProbe,
+    spectrum: &mut SpectralShare,
+) -> (Vec<DensityMeasures>, f64) {
+    let measures = sim.gases.iter().map(|g| probe.measure(&g.model)).collect();
+    let ke_top_octave = if sim.velocity.kind() == BoxKind::Periodic {
+        metrics::top_octave_share(spectrum, &sim.velocity)
+    } else {
+        f64::NAN
+    };
+    (measures, ke_top_octave)
+}
+
 /// A CFL number `max|u| Δt/Δx` beyond which a run warns (once): the
 /// semi-Lagrangian step stays stable at any CFL number, but a departure
 /// point this many cells away leaves the flow unresolved.
@@ -183,7 +227,7 @@ pub const CFL_WARNING: f32 = 10.0;
 ///   Nyquist index) — see [`smokelab::density::probe`]; the fine measures
 ///   are `NaN` on steps without them;
 /// - `mirror_error` (two gases; densities at the cell centres),
-///   `vel_mirror_error` ([`metrics::velocity_mirror_error`]), `density_bytes`
+///   `vel_mirror_error` ([`metrics::velocity_mirror`]), `density_bytes`
 ///   (all gases' representations, shared buffers once), `substeps` (QUICK);
 /// - with obstacles, [`ObstacleColumns`];
 /// - wall seconds per stage, [`StageColumns`].
@@ -428,33 +472,22 @@ fn drive<C: Serialize>(
                     opts.out.display()
                 );
             }
-            // The per-step measures: one pass over the faces or cells each, and
-            // the interpolant at PROBE_POINTS points; timed with the others.
-            let (max_u, div, div_interp, mirror, vel_mirror) = timed(&mut times.metrics, || {
-                (
-                    sim.velocity.max_norm(),
-                    metrics::divergence_stats(&sim.velocity),
-                    metrics::interpolant_divergence(&sim.velocity, &domain, &points),
-                    (sim.gases.len() == 2).then(|| {
-                        metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density())
-                    }),
-                    metrics::velocity_mirror_error(&sim.velocity),
-                )
-            });
+            let StepMeasures {
+                vel_mirror,
+                div,
+                div_interp,
+                mirror,
+            } = timed(&mut times.metrics, || StepMeasures::take(sim, &points));
+            let max_u = vel_mirror.max_norm;
             let cfl = max_u * sim.params.dt / sim.domain().cell;
             let measuring = frame % every == 0 || frame == opts.frames;
-            let measures: Option<Vec<DensityMeasures>> = measuring.then(|| {
-                timed(&mut times.metrics, || {
-                    sim.gases.iter().map(|g| probe.measure(&g.model)).collect()
-                })
-            });
-            // The spectrum is periodic; in a closed box the share is not defined.
-            let ke_top_octave = if measuring && sim.velocity.kind() == BoxKind::Periodic {
-                timed(&mut times.metrics, || {
-                    metrics::top_octave_share(&mut spectrum, &sim.velocity)
-                })
+            let (measures, ke_top_octave) = if measuring {
+                let (m, ke) = timed(&mut times.metrics, || {
+                    fine_measures(sim, &mut probe, &mut spectrum)
+                });
+                (Some(m), ke)
             } else {
-                f64::NAN
+                (None, f64::NAN)
             };
             if opts.save.contains(frame, opts.frames) {
                 timed(&mut times.output, || {
@@ -528,7 +561,7 @@ fn drive<C: Serialize>(
                 gases,
                 mirror_error: mirror.into_iter().collect(),
                 flow: FlowColumns {
-                    vel_mirror_error: vel_mirror,
+                    vel_mirror_error: vel_mirror.error,
                     density_bytes,
                     substeps: sim.advector().substeps(),
                 },

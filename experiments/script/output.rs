@@ -292,7 +292,8 @@ impl Recorder {
         let domain = *sim.domain();
         let probes = self.probes.get_or_insert_with(|| Probes::new(domain));
         let v = &sim.velocity;
-        let max_u = v.max_norm();
+        let mirror = metrics::velocity_mirror(v);
+        let max_u = mirror.max_norm;
         let div = metrics::divergence_stats(v);
         let interp = metrics::interpolant_divergence(v, &domain, &probes.points);
         let ke_top_octave = if fine && v.kind() == BoxKind::Periodic {
@@ -324,7 +325,7 @@ impl Recorder {
         if let [a, b] = &sim.gases[..] {
             row.push(Cell::F32(metrics::mirror_error(a.density(), b.density())));
         }
-        row.push(Cell::F32(metrics::velocity_mirror_error(v)));
+        row.push(Cell::F32(mirror.error));
         row.extend(sim.gases.iter().map(|g| Cell::F64(g.density().total())));
         row.push(Cell::F64(elapsed));
         if self.log.is_none() {

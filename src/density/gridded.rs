@@ -77,8 +77,13 @@ impl Gridded {
     /// Sample the trilinear interpolant at the cell centres of `grid` (a copy
     /// when `grid` is on the density's own domain).
     pub fn sample(&self, grid: &mut ScalarGrid) {
-        if grid.domain() == self.density.domain() {
+        let (fine, coarse) = (grid.domain(), self.density.domain());
+        if fine == coarse {
             grid.as_slice_mut().copy_from_slice(self.density.as_slice());
+        } else if fine.dims[0] % coarse.dims[0] == 0
+            && *fine == coarse.refined(fine.dims[0] / coarse.dims[0])
+        {
+            self.density.sample_refined(grid);
         } else {
             grid.write_field(&self.density);
         }

@@ -569,34 +569,53 @@ impl FaceGrid {
             "divergence: one value per cell"
         );
         let [nx, ny, _] = self.domain.dims;
+        out.par_chunks_mut(nx * ny)
+            .enumerate()
+            .for_each(|(k, slab)| self.divergence_slab(k, slab));
+    }
+
+    /// [`FaceGrid::divergence`] of the cells of z-slab `k` into `slab`
+    /// (`[y][x]`, one value per cell of the slab), each value the one the
+    /// whole-grid divergence writes there.
+    ///
+    /// # Panics
+    /// If `slab` does not have one value per cell of a slab, or `k` is not a
+    /// slab of the domain.
+    pub(crate) fn divergence_slab<T: Real>(&self, k: usize, slab: &mut [T]) {
+        let [nx, ny, nz] = self.domain.dims;
+        assert!(
+            slab.len() == nx * ny && k < nz,
+            "divergence_slab: slab {k} of {nz}, {} values for {nx}×{ny} cells",
+            slab.len()
+        );
         let inv = 1.0 / self.domain.cell as f64;
         let [du, dv, dw] = self.dims;
         let (u, v, w) = (self.slice(0), self.slice(1), self.slice(2));
-        out.par_chunks_mut(nx * ny)
-            .enumerate()
-            .for_each(|(k, slab)| {
-                let k1 = if k + 1 < dw[2] { k + 1 } else { 0 };
-                for j in 0..ny {
-                    let j1 = if j + 1 < dv[1] { j + 1 } else { 0 };
-                    let ur = &u[(k * du[1] + j) * du[0]..][..du[0]];
-                    let (v0, v1) = (
-                        &v[(k * dv[1] + j) * nx..][..nx],
-                        &v[(k * dv[1] + j1) * nx..][..nx],
-                    );
-                    let (w0, w1) = (
-                        &w[(k * dw[1] + j) * nx..][..nx],
-                        &w[(k1 * dw[1] + j) * nx..][..nx],
-                    );
-                    let o = &mut slab[j * nx..(j + 1) * nx];
-                    for i in 0..nx {
-                        let i1 = if i + 1 < du[0] { i + 1 } else { 0 };
-                        let d = (ur[i1] as f64 - ur[i] as f64)
-                            + (v1[i] as f64 - v0[i] as f64)
-                            + (w1[i] as f64 - w0[i] as f64);
-                        o[i] = T::from_f64(d * inv);
-                    }
-                }
-            });
+        let k1 = if k + 1 < dw[2] { k + 1 } else { 0 };
+        for j in 0..ny {
+            let j1 = if j + 1 < dv[1] { j + 1 } else { 0 };
+            let ur = &u[(k * du[1] + j) * du[0]..][..du[0]];
+            let (v0, v1) = (
+                &v[(k * dv[1] + j) * nx..][..nx],
+                &v[(k * dv[1] + j1) * nx..][..nx],
+            );
+            let (w0, w1) = (
+                &w[(k * dw[1] + j) * nx..][..nx],
+                &w[(k1 * dw[1] + j) * nx..][..nx],
+            );
+            let o = &mut slab[j * nx..(j + 1) * nx];
+            let d = |u0: f32, u1: f32, v0: f32, v1: f32, w0: f32, w1: f32| {
+                let d = (u1 as f64 - u0 as f64) + (v1 as f64 - v0 as f64) + (w1 as f64 - w0 as f64);
+                T::from_f64(d * inv)
+            };
+            // Every cell but the last reads its upper x-face at i + 1 (a
+            // branch-free loop); the last reads face nx, or face 0 wrapped.
+            for i in 0..nx - 1 {
+                o[i] = d(ur[i], ur[i + 1], v0[i], v1[i], w0[i], w1[i]);
+            }
+            let (l, up) = (nx - 1, if nx < du[0] { nx } else { 0 });
+            o[l] = d(ur[l], ur[up], v0[l], v1[l], w0[l], w1[l]);
+        }
     }
 
     /// `u −= scale · G p` with the compact gradient

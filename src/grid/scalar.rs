@@ -50,6 +50,60 @@ impl Grid<Ix3> {
         });
     }
 
+    /// The trilinear interpolant (this grid's [`ScalarField`] query, with its
+    /// [`Wrap`]) at every cell centre of `out`, whose domain is this one
+    /// refined `r` times per axis ([`Domain::refined`]). Fine centre `f` lies
+    /// at coarse grid coordinate `g = (f + ½)/r − ½` on each axis, so the
+    /// weights are separable and the same on every row: one z-interpolated
+    /// coarse slab per fine slab, then rows in y, then samples in x — the
+    /// interpolant's value up to f32 rounding (a few ulps from the point
+    /// query's, which rounds the fine centre's coordinates first), at a
+    /// fraction of eight corners per sample.
+    ///
+    /// # Panics
+    /// If `out`'s domain is not this one refined by an integer factor.
+    pub fn sample_refined(&self, out: &mut ScalarGrid) {
+        let [nx, ny, _] = self.domain.dims;
+        let fine = *out.domain();
+        let r = fine.dims[0] / nx;
+        assert!(
+            r >= 1 && fine == self.domain.refined(r),
+            "sample_refined: {:?} is not {:?} refined",
+            fine.dims,
+            self.domain.dims
+        );
+        let axes: [Vec<(usize, usize, f32)>; 3] =
+            std::array::from_fn(|a| refined_axis(self.domain.dims[a], r, self.wrap));
+        let [ax, ay, az] = &axes;
+        let coarse = self.as_slice();
+        let fx = fine.dims[0];
+        out.as_slice_mut()
+            .par_chunks_mut(fx * fine.dims[1])
+            .enumerate()
+            .for_each_init(
+                || (vec![0.0f32; nx * ny], vec![0.0f32; nx]),
+                |(plane, row), (kf, slab)| {
+                    let (k0, k1, tz) = az[kf];
+                    let (a, b) = (
+                        &coarse[k0 * nx * ny..][..nx * ny],
+                        &coarse[k1 * nx * ny..][..nx * ny],
+                    );
+                    for (p, (a, b)) in plane.iter_mut().zip(a.iter().zip(b)) {
+                        *p = (1.0 - tz) * a + tz * b;
+                    }
+                    for (out_row, &(j0, j1, ty)) in slab.chunks_exact_mut(fx).zip(ay) {
+                        let (a, b) = (&plane[j0 * nx..][..nx], &plane[j1 * nx..][..nx]);
+                        for (x, (a, b)) in row.iter_mut().zip(a.iter().zip(b)) {
+                            *x = (1.0 - ty) * a + ty * b;
+                        }
+                        for (o, &(i0, i1, tx)) in out_row.iter_mut().zip(ax) {
+                            *o = (1.0 - tx) * row[i0] + tx * row[i1];
+                        }
+                    }
+                },
+            );
+    }
+
     /// Trilinear sample at continuous grid coordinates (cell centres at integers).
     #[inline]
     pub fn sample_grid_coords(&self, g: Vec3) -> f32 {
@@ -106,6 +160,30 @@ impl ScalarField for ScalarGrid {
     }
 }
 
+/// Per fine index along an axis of `n` coarse cells refined `r` times: the
+/// two coarse neighbours of its centre and the weight of the upper one
+/// (`g = (f + ½)/r − ½`; periodic indices wrap, clamped coordinates stop at
+/// the outermost centres, as [`Stencil`] does).
+fn refined_axis(n: usize, r: usize, wrap: Wrap) -> Vec<(usize, usize, f32)> {
+    (0..n * r)
+        .map(|f| {
+            let g = (f as f64 + 0.5) / r as f64 - 0.5;
+            match wrap {
+                Wrap::Periodic => {
+                    let lo = g.floor();
+                    let i = (lo as i64).rem_euclid(n as i64) as usize;
+                    (i, (i + 1) % n, (g - lo) as f32)
+                }
+                Wrap::Clamped => {
+                    let g = g.clamp(0.0, (n - 1) as f64);
+                    let i = (g.floor() as usize).min(n.saturating_sub(2));
+                    (i, (i + 1).min(n - 1), (g - i as f64) as f32)
+                }
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -133,5 +211,33 @@ mod tests {
         let d = Domain::cube(8, 2.0).unwrap();
         let g = ScalarGrid::from_field(d, &*ops::constant(3.0));
         assert!((g.total() - 24.0).abs() < 1e-9);
+    }
+    #[test]
+    fn sample_refined_is_the_point_query_at_the_fine_centres() {
+        struct Bumpy;
+        impl ScalarField for Bumpy {
+            fn eval(&self, p: Vec3) -> f32 {
+                (1.3 * p.x).sin() * (0.7 * p.y).cos() + 0.4 * p.z
+            }
+        }
+        let d = Domain::new(Vec3::new(-1.0, 0.5, 2.0), 0.5, [7, 5, 4]).unwrap();
+        for wrap in [Wrap::Periodic, Wrap::Clamped] {
+            let coarse = ScalarGrid::from_field(d, &Bumpy).with_wrap(wrap);
+            for r in [1, 2, 3] {
+                let mut fast = ScalarGrid::zeros(d.refined(r));
+                coarse.sample_refined(&mut fast);
+                let slow = ScalarGrid::from_field(d.refined(r), &coarse);
+                // Measured: ≤ 4.8e-7 (rounding of the fine centres'
+                // coordinates in the point query); a wrong neighbour or
+                // weight is off by ≳ 1e-2 on this field.
+                let worst = fast
+                    .as_slice()
+                    .iter()
+                    .zip(slow.as_slice())
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0f32, f32::max);
+                assert!(worst < 2e-6, "{wrap:?} r = {r}: {worst}");
+            }
+        }
     }
 }
