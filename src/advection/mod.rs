@@ -23,6 +23,7 @@ use serde::{Deserialize, Serialize};
 use crate::domain::Domain;
 use crate::grid::{FaceGrid, ScalarGrid};
 pub use quick::{CflError, Limiter, Quick, QuickOptions};
+pub(crate) use semi_lagrangian::departure_points_wrapped;
 pub use semi_lagrangian::{
     advect_faces, advect_fused, advect_scalar, departure_point, departure_points,
     interpolate_scalar, Departures,

@@ -108,26 +108,70 @@ pub fn departure_point(vel: &FaceGrid, g: Vec3, dt_cells: f32, backtrace: Backtr
 }
 
 /// [`departure_point`] of every point of `g` (grid coordinates), in place,
-/// unwrapped: eight at a time through the AVX2 kernel ([`simd::points8`])
-/// when the CPU has it; the lanes whose stencils leave the lattices, the
-/// remainder and RK3 one by one. Both do the same floating-point operations
+/// unwrapped: sixteen at a time through the AVX-512 kernel
+/// ([`simd::points16`]) and eight through the AVX2 one ([`simd::points8`];
+/// stencils wrapped or clamped as the scalar path's) when the CPU has them;
+/// RK3, the remainder and the rare lanes the kernel leaves (points more than
+/// a period outside) one by one. Both do the same floating-point operations
 /// in the same order, so the points are the same to the bit on any CPU.
 pub fn departure_points(vel: &FaceGrid, g: &mut [Vec3], dt_cells: f32, backtrace: Backtrace) {
-    let one = |p: &mut Vec3| *p = departure_point(vel, *p, dt_cells, backtrace);
+    trace_points(vel, g, dt_cells, backtrace, false);
+}
+
+/// [`departure_points`], each point then wrapped into the periodic box of
+/// `vel`'s domain as `crate::density::wrap_grid` does (in the kernel's
+/// lanes too): one backward step of the gridless walk (eq 7.4's `B_k`).
+pub(crate) fn departure_points_wrapped(
+    vel: &FaceGrid,
+    g: &mut [Vec3],
+    dt_cells: f32,
+    backtrace: Backtrace,
+) {
+    trace_points(vel, g, dt_cells, backtrace, true);
+}
+
+/// [`departure_points`], wrapped into the box when `wrap`.
+fn trace_points(vel: &FaceGrid, g: &mut [Vec3], dt_cells: f32, backtrace: Backtrace, wrap: bool) {
+    let dims = vel.domain().dims;
+    let one = |p: &mut Vec3| {
+        *p = departure_point(vel, *p, dt_cells, backtrace);
+        if wrap {
+            *p = crate::density::wrap_grid(*p, dims);
+        }
+    };
     #[cfg(target_arch = "x86_64")]
     if let Some(lat) = simd::lattices(vel.sampler()) {
-        let mut groups = g.chunks_exact_mut(8);
-        for group in &mut groups {
-            let points: &[Vec3; 8] = (&*group).try_into().expect("groups of eight");
-            // SAFETY: `lattices` checked AVX2 and the lattice sizes.
-            let (p, outside) = unsafe { simd::points8(lat, points, dt_cells, backtrace) };
-            for (l, (gi, pi)) in group.iter_mut().zip(p).enumerate() {
-                if outside & (1 << l) == 0 {
-                    *gi = pi;
-                } else {
-                    one(gi);
+        let (stencil, into_box) = (vel.kind().wrap(), wrap.then_some(dims));
+        let redo = |points: &mut [Vec3], left: u32| {
+            if left != 0 {
+                for (l, p) in points.iter_mut().enumerate() {
+                    if left & (1 << l) != 0 {
+                        one(p);
+                    }
                 }
             }
+        };
+        // Sixteen at a time where the CPU has AVX-512, then eight.
+        let g = if simd::has_avx512() {
+            let mut groups = g.chunks_exact_mut(16);
+            for group in &mut groups {
+                let points: &mut [Vec3; 16] = group.try_into().expect("groups of sixteen");
+                // SAFETY: `has_avx512`, and `lattices` checked the lattice sizes.
+                let left =
+                    unsafe { simd::points16(lat, stencil, points, dt_cells, backtrace, into_box) };
+                redo(points, left);
+            }
+            groups.into_remainder()
+        } else {
+            g
+        };
+        let mut groups = g.chunks_exact_mut(8);
+        for group in &mut groups {
+            let points: &mut [Vec3; 8] = group.try_into().expect("groups of eight");
+            // SAFETY: `lattices` checked AVX2 and the lattice sizes.
+            let left =
+                unsafe { simd::points8(lat, stencil, points, dt_cells, backtrace, into_box) };
+            redo(points, left);
         }
         groups.into_remainder().iter_mut().for_each(one);
         return;

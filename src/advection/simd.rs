@@ -11,12 +11,18 @@
 //! the box's edges; a group of eight with any stencil outside its lattice
 //! returns `None`/`false` and the caller does those points one by one
 //! through the wrapping scalar path.
+//!
+//! Arbitrary points (the gridless walk, SELMA's map: [`points8`], and
+//! [`points16`] in sixteen AVX-512 lanes) wrap or clamp their stencils per
+//! lane as the scalar `Stencil` does, so only points more than a period
+//! outside the box (and NaN) are left to the scalar path.
 
 use std::arch::x86_64::*;
 
 use glam::Vec3;
 
 use crate::grid::face::FaceSampler;
+use crate::grid::Wrap;
 
 use super::Backtrace;
 
@@ -359,35 +365,568 @@ fn store8(out: &mut [f32], v: __m256) {
     unsafe { _mm256_storeu_ps(s.as_mut_ptr(), v) };
 }
 
-/// The departure points of eight arbitrary points `g` (cell-centre grid
-/// coordinates, unwrapped) traced back through `vel` over `dt_cells =
-/// Δt/Δx` (Euler or RK2) as `semi_lagrangian::departure_point` does, and a
-/// bit mask of the lanes (bit `l` for lane `l`) where a stencil would wrap
-/// or clamp: their points are not the scalar path's and must be redone by
-/// it. The gridless walk's kernel (eq 7.4's `B_k`).
+/// Lower and upper lattice index and the fraction between them along one
+/// axis of a lattice of `n`, per lane, as the scalar stencil's `axis` finds
+/// them (periodic wrap, or clamp to `[0, n − 1]`), and the lanes it leaves
+/// to the scalar path (all ones: periodic points more than a period
+/// outside, clamped NaN); those lanes read indices 0 and 1.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn axis8(g: __m256, n: usize, wrap: Wrap) -> (__m256i, __m256i, __m256, __m256i) {
+    let ni = n as i32;
+    let (f, frac, i0, i1, bad) = match wrap {
+        Wrap::Periodic => {
+            let t = _mm256_cvttps_epi32(g);
+            // −1 where the truncation rounded up (negative non-integers).
+            let up = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GT_OQ>(_mm256_cvtepi32_ps(t), g));
+            let f = _mm256_add_epi32(t, up);
+            let n8 = _mm256_set1_epi32(ni);
+            let below = _mm256_cmpgt_epi32(_mm256_setzero_si256(), f);
+            let above = _mm256_cmpgt_epi32(f, _mm256_set1_epi32(ni - 1));
+            let i0 = _mm256_sub_epi32(
+                _mm256_add_epi32(f, _mm256_and_si256(below, n8)),
+                _mm256_and_si256(above, n8),
+            );
+            let i1 = _mm256_add_epi32(i0, _mm256_set1_epi32(1));
+            let i1 = _mm256_andnot_si256(_mm256_cmpeq_epi32(i1, n8), i1);
+            let bad = _mm256_or_si256(
+                _mm256_cmpgt_epi32(_mm256_set1_epi32(-ni), f),
+                _mm256_cmpgt_epi32(f, _mm256_set1_epi32(2 * ni - 1)),
+            );
+            (f, g, i0, i1, bad)
+        }
+        Wrap::Clamped => {
+            // `g.clamp(0, n − 1)`: `max(a, b)` is `a > b ? a : b`, so −0 and
+            // NaN pass through as in `f32::clamp`.
+            let zero = _mm256_setzero_ps();
+            let c = _mm256_min_ps(_mm256_set1_ps((n - 1) as f32), _mm256_max_ps(zero, g));
+            let f = _mm256_cvttps_epi32(c);
+            let i1 = _mm256_min_epi32(
+                _mm256_add_epi32(f, _mm256_set1_epi32(1)),
+                _mm256_set1_epi32(ni - 1),
+            );
+            let bad = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_UNORD_Q>(g, g));
+            (f, c, f, i1, bad)
+        }
+    };
+    let frac = _mm256_sub_ps(frac, _mm256_cvtepi32_ps(f));
+    let i0 = _mm256_andnot_si256(bad, i0);
+    let i1 = _mm256_blendv_epi8(i1, _mm256_set1_epi32(1), bad);
+    (i0, i1, frac, bad)
+}
+
+/// Trilinear interpolation of `data` (lattice `d`) at lattice coordinates
+/// `g` in eight lanes, wrapped or clamped as the scalar
+/// [`crate::grid::Stencil`] with `wrap` (its corners, weights and sum in
+/// its order: the same bits), and the lanes left to the scalar path
+/// ([`axis8`]; they read valid but meaningless corners).
+///
+/// # Safety
+/// `data.len() ≥ mx·my·mz < 2³⁰`, every `m ≥ 2` ([`lattices`]), and the CPU has
+/// AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn stencil8(data: &[f32], d: [usize; 3], wrap: Wrap, g: [__m256; 3]) -> (__m256, __m256i) {
+    let (x0, x1, tx, bx) = axis8(g[0], d[0], wrap);
+    let (y0, y1, ty, by) = axis8(g[1], d[1], wrap);
+    let (z0, z1, tz, bz) = axis8(g[2], d[2], wrap);
+    let bad = _mm256_or_si256(bx, _mm256_or_si256(by, bz));
+    let (mx, my) = (
+        _mm256_set1_epi32(d[0] as i32),
+        _mm256_set1_epi32(d[1] as i32),
+    );
+    let (y, z) = (
+        [y0, y1],
+        [_mm256_mullo_epi32(z0, my), _mm256_mullo_epi32(z1, my)],
+    );
+    let one = _mm256_set1_ps(1.0);
+    let wx = [_mm256_sub_ps(one, tx), tx];
+    let wy = [_mm256_sub_ps(one, ty), ty];
+    let wz = [_mm256_sub_ps(one, tz), tz];
+    // Where every lane's x1 is x0 + 1 the two x-corners are adjacent in
+    // memory: one 64-bit gather per four lanes fetches both (as
+    // `trilinear8`); at a wrapped or clamped x edge, two 32-bit gathers.
+    let adjacent = all(_mm256_cmpeq_epi32(
+        x1,
+        _mm256_add_epi32(x0, _mm256_set1_epi32(1)),
+    ));
+    let mut acc = _mm256_setzero_ps();
+    for (cy, cz) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+        let row = _mm256_mullo_epi32(_mm256_add_epi32(z[cz], y[cy]), mx);
+        let at = _mm256_add_epi32(row, x0);
+        // SAFETY: every index is a lattice index (`axis8`: 0 ≤ x0, x1 < mx,
+        // and so on; indices below 2³⁰, [`lattices`]), so it and, where
+        // `adjacent`, the next one (x0 ≤ mx − 2) are inside `data`; gathers
+        // need no alignment.
+        let v = unsafe {
+            if adjacent {
+                let pairs = data.as_ptr().cast::<i64>();
+                let low = _mm256_castsi256_ps(_mm256_i32gather_epi64::<4>(
+                    pairs,
+                    _mm256_castsi256_si128(at),
+                ));
+                let high = _mm256_castsi256_ps(_mm256_i32gather_epi64::<4>(
+                    pairs,
+                    _mm256_extracti128_si256::<1>(at),
+                ));
+                // As in `trilinear8`: split the (x0, x1) pairs, restore lane order.
+                let split = |v: __m256| {
+                    _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(v)))
+                };
+                [
+                    split(_mm256_shuffle_ps::<0b10_00_10_00>(low, high)),
+                    split(_mm256_shuffle_ps::<0b11_01_11_01>(low, high)),
+                ]
+            } else {
+                let at1 = _mm256_add_epi32(row, x1);
+                [
+                    _mm256_i32gather_ps::<4>(data.as_ptr(), at),
+                    _mm256_i32gather_ps::<4>(data.as_ptr(), at1),
+                ]
+            }
+        };
+        for (cx, v) in v.into_iter().enumerate() {
+            let weight = _mm256_mul_ps(_mm256_mul_ps(wx[cx], wy[cy]), wz[cz]);
+            acc = _mm256_add_ps(acc, _mm256_mul_ps(weight, v));
+        }
+    }
+    (acc, bad)
+}
+
+/// The velocity at eight points `g` (cell-centre grid coordinates) as
+/// `FaceSampler::at` finds it anywhere (component `a` on its lattice at
+/// `g + ½e_a`, wrapped or clamped by `wrap`), and the lanes left to the
+/// scalar path (all ones).
+///
+/// # Safety
+/// The CPU has AVX2 and `vel.dims` passes [`lattices`].
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn velocity8_wrapped(vel: Lattices, wrap: Wrap, g: [__m256; 3]) -> ([__m256; 3], __m256i) {
+    let mut u = [_mm256_setzero_ps(); 3];
+    let mut bad = _mm256_setzero_si256();
+    for (b, ub) in u.iter_mut().enumerate() {
+        let mut p = g;
+        p[b] = _mm256_add_ps(p[b], _mm256_set1_ps(0.5));
+        // SAFETY: the lattice of b has vel.data[b]'s length (fits).
+        let (v, lanes) = unsafe { stencil8(vel.data[b], vel.dims[b], wrap, p) };
+        *ub = v;
+        bad = _mm256_or_si256(bad, lanes);
+    }
+    (u, bad)
+}
+
+/// `x` wrapped into `[−½, n − ½)` as the density's scalar `wrap1` does for
+/// points less than a period outside (one add or subtract of `n`), and
+/// the lanes further out (all ones), which need its remainder.
+#[inline]
+#[target_feature(enable = "avx2")]
+fn wrap8(x: __m256, n: usize) -> (__m256, __m256i) {
+    let (lo, len) = (_mm256_set1_ps(-0.5), _mm256_set1_ps(n as f32));
+    let hi = _mm256_set1_ps(-0.5 + n as f32);
+    let below = _mm256_cmp_ps::<_CMP_LT_OQ>(x, lo);
+    let above = _mm256_cmp_ps::<_CMP_GE_OQ>(x, hi);
+    let (up, down) = (_mm256_add_ps(x, len), _mm256_sub_ps(x, len));
+    let far = _mm256_or_ps(
+        _mm256_andnot_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(up, lo), below),
+        _mm256_andnot_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(down, hi), above),
+    );
+    let y = _mm256_blendv_ps(_mm256_blendv_ps(x, up, below), down, above);
+    (y, _mm256_castps_si256(far))
+}
+
+/// Eight arbitrary points `g` (cell-centre grid coordinates), in place:
+/// their departure points through `vel` over `dt_cells = Δt/Δx` (Euler or
+/// RK2) as `semi_lagrangian::departure_point` finds them — the stencils
+/// wrapped or clamped by `wrap` as the scalar `Stencil` does — and, with
+/// `into_box = Some(n)`, wrapped into the periodic box of `n` cells as the
+/// density's `wrap_grid`. Returns a bit mask (bit `l` for lane `l`) of the
+/// lanes it leaves to the scalar path (RK3, points more than a period
+/// outside, NaN): those points are not written. The gridless walk's and
+/// SELMA's kernel (eq 7.4's `B_k`).
 ///
 /// # Safety
 /// The CPU has AVX2 ([`lattices`]) and `vel.dims` passes [`lattices`].
 #[target_feature(enable = "avx2")]
 pub(crate) unsafe fn points8(
     vel: Lattices,
-    g: &[Vec3; 8],
+    wrap: Wrap,
+    g: &mut [Vec3; 8],
     dt_cells: f32,
     backtrace: Backtrace,
-) -> ([Vec3; 8], u32) {
+    into_box: Option<[usize; 3]>,
+) -> u32 {
+    if backtrace == Backtrace::Rk3 {
+        return 0xff;
+    }
     let c: [__m256; 3] = std::array::from_fn(|a| {
         let lanes: [f32; 8] = std::array::from_fn(|l| g[l][a]);
         load8(&lanes, 0)
     });
+    let step = |u: [__m256; 3], s: f32| -> [__m256; 3] {
+        std::array::from_fn(|a| _mm256_sub_ps(c[a], _mm256_mul_ps(_mm256_set1_ps(s), u[a])))
+    };
     // SAFETY (both): as this function's.
-    let (u0, ok0) = unsafe { velocity8(vel, c) };
-    let (p, ok1) = unsafe { trace8(vel, c, u0, dt_cells, backtrace) };
+    let (u0, mut bad) = unsafe { velocity8_wrapped(vel, wrap, c) };
+    let mut p = if backtrace == Backtrace::Rk2 {
+        let (u1, bad1) = unsafe { velocity8_wrapped(vel, wrap, step(u0, 0.5 * dt_cells)) };
+        bad = _mm256_or_si256(bad, bad1);
+        step(u1, dt_cells)
+    } else {
+        step(u0, dt_cells)
+    };
+    if let Some(n) = into_box {
+        for (pa, n) in p.iter_mut().zip(n) {
+            let (y, far) = wrap8(*pa, n);
+            *pa = y;
+            bad = _mm256_or_si256(bad, far);
+        }
+    }
+    let bad = _mm256_movemask_ps(_mm256_castsi256_ps(bad)) as u32;
     let mut lanes = [[0.0f32; 8]; 3];
     for (l, pa) in lanes.iter_mut().zip(p) {
         store8(l, pa);
     }
-    let ok = _mm256_and_si256(ok0, ok1);
-    let outside = !_mm256_movemask_ps(_mm256_castsi256_ps(ok)) as u32 & 0xff;
-    let points = std::array::from_fn(|l| Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]));
-    (points, outside)
+    for (l, gl) in g.iter_mut().enumerate() {
+        if bad & (1 << l) == 0 {
+            *gl = Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]);
+        }
+    }
+    bad
+}
+
+/// The sixteen-lane (AVX-512F) kernel for arbitrary points, [`points16`].
+/// Its intrinsics are stable since Rust 1.89, later than the workspace's
+/// `rust-version` (1.80); on an older toolchain this module does not build.
+#[clippy::msrv = "1.89"]
+mod avx512 {
+    use super::*;
+
+    /// [`axis8`] in sixteen lanes (AVX-512), the lanes left to the scalar path
+    /// as a mask.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn axis16(g: __m512, n: usize, wrap: Wrap) -> (__m512i, __m512i, __m512, __mmask16) {
+        let ni = n as i32;
+        let one = _mm512_set1_epi32(1);
+        let (f, frac, i0, i1, bad) = match wrap {
+            Wrap::Periodic => {
+                let t = _mm512_cvttps_epi32(g);
+                // −1 where the truncation rounded up (negative non-integers).
+                let up = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_cvtepi32_ps(t), g);
+                let f = _mm512_mask_sub_epi32(t, up, t, one);
+                let n16 = _mm512_set1_epi32(ni);
+                let below = _mm512_cmplt_epi32_mask(f, _mm512_setzero_si512());
+                let above = _mm512_cmpgt_epi32_mask(f, _mm512_set1_epi32(ni - 1));
+                let i0 = _mm512_mask_add_epi32(f, below, f, n16);
+                let i0 = _mm512_mask_sub_epi32(i0, above, i0, n16);
+                let i1 = _mm512_add_epi32(i0, one);
+                let i1 = _mm512_mask_mov_epi32(
+                    i1,
+                    _mm512_cmpeq_epi32_mask(i1, n16),
+                    _mm512_setzero_si512(),
+                );
+                let bad = _mm512_cmplt_epi32_mask(f, _mm512_set1_epi32(-ni))
+                    | _mm512_cmpgt_epi32_mask(f, _mm512_set1_epi32(2 * ni - 1));
+                (f, g, i0, i1, bad)
+            }
+            Wrap::Clamped => {
+                // As `axis8`: `max(a, b)` is `a > b ? a : b`.
+                let zero = _mm512_setzero_ps();
+                let c = _mm512_min_ps(_mm512_set1_ps((n - 1) as f32), _mm512_max_ps(zero, g));
+                let f = _mm512_cvttps_epi32(c);
+                let i1 = _mm512_min_epi32(_mm512_add_epi32(f, one), _mm512_set1_epi32(ni - 1));
+                (f, c, f, i1, _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(g, g))
+            }
+        };
+        let frac = _mm512_sub_ps(frac, _mm512_cvtepi32_ps(f));
+        let i0 = _mm512_maskz_mov_epi32(!bad, i0);
+        let i1 = _mm512_mask_mov_epi32(i1, bad, one);
+        (i0, i1, frac, bad)
+    }
+
+    /// [`stencil8`] in sixteen lanes (AVX-512): the same corners, weights and
+    /// sum, the (x0, x1) pairs split by one two-source permute.
+    ///
+    /// # Safety
+    /// As [`stencil8`], with AVX-512F.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn stencil16(
+        data: &[f32],
+        d: [usize; 3],
+        wrap: Wrap,
+        g: [__m512; 3],
+    ) -> (__m512, __mmask16) {
+        let (x0, x1, tx, bx) = axis16(g[0], d[0], wrap);
+        let (y0, y1, ty, by) = axis16(g[1], d[1], wrap);
+        let (z0, z1, tz, bz) = axis16(g[2], d[2], wrap);
+        let (mx, my) = (
+            _mm512_set1_epi32(d[0] as i32),
+            _mm512_set1_epi32(d[1] as i32),
+        );
+        let (y, z) = (
+            [y0, y1],
+            [_mm512_mullo_epi32(z0, my), _mm512_mullo_epi32(z1, my)],
+        );
+        let one = _mm512_set1_ps(1.0);
+        let wx = [_mm512_sub_ps(one, tx), tx];
+        let wy = [_mm512_sub_ps(one, ty), ty];
+        let wz = [_mm512_sub_ps(one, tz), tz];
+        let adjacent =
+            _mm512_cmpneq_epi32_mask(x1, _mm512_add_epi32(x0, _mm512_set1_epi32(1))) == 0;
+        let even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+        let odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
+        // Points traced from neighbouring cells often share their lattice row:
+        // then the corners of a row lie in a window of 32 values from `base`
+        // (eight before lane 0's x0), fetched by two loads and picked by two
+        // permutes instead of gathers, where every lane's x0 and x1 fall in it.
+        let base = (_mm_cvtsi128_si32(_mm512_castsi512_si128(x0)) - 8).max(0);
+        let window = _mm512_set1_epi32(32);
+        let (o0, o1) = (
+            _mm512_sub_epi32(x0, _mm512_set1_epi32(base)),
+            _mm512_sub_epi32(x1, _mm512_set1_epi32(base)),
+        );
+        let in_window =
+            (_mm512_cmpge_epu32_mask(o0, window) | _mm512_cmpge_epu32_mask(o1, window)) == 0;
+        let mut acc = _mm512_setzero_ps();
+        for (cy, cz) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+            let row = _mm512_mullo_epi32(_mm512_add_epi32(z[cz], y[cy]), mx);
+            let at = _mm512_add_epi32(row, x0);
+            let r0 = _mm_cvtsi128_si32(_mm512_castsi512_si128(row));
+            let one_row = in_window
+                && _mm512_cmpneq_epi32_mask(row, _mm512_set1_epi32(r0)) == 0
+                && (r0 + base) as usize + 32 <= data.len();
+            // SAFETY: as in `stencil8`; a window's 32 values from `r0 + base ≥ 0`
+            // end inside `data` (checked).
+            let v = unsafe {
+                if one_row {
+                    let p = data.as_ptr().add((r0 + base) as usize);
+                    let (a, b) = (_mm512_loadu_ps(p), _mm512_loadu_ps(p.add(16)));
+                    [
+                        _mm512_permutex2var_ps(a, o0, b),
+                        _mm512_permutex2var_ps(a, o1, b),
+                    ]
+                } else if adjacent {
+                    let pairs = data.as_ptr().cast::<i64>();
+                    let low = _mm512_castsi512_ps(_mm512_i32gather_epi64::<4>(
+                        _mm512_castsi512_si256(at),
+                        pairs,
+                    ));
+                    let high = _mm512_castsi512_ps(_mm512_i32gather_epi64::<4>(
+                        _mm512_extracti64x4_epi64::<1>(at),
+                        pairs,
+                    ));
+                    [
+                        _mm512_permutex2var_ps(low, even, high),
+                        _mm512_permutex2var_ps(low, odd, high),
+                    ]
+                } else {
+                    let at1 = _mm512_add_epi32(row, x1);
+                    [
+                        _mm512_i32gather_ps::<4>(at, data.as_ptr()),
+                        _mm512_i32gather_ps::<4>(at1, data.as_ptr()),
+                    ]
+                }
+            };
+            for (cx, v) in v.into_iter().enumerate() {
+                let weight = _mm512_mul_ps(_mm512_mul_ps(wx[cx], wy[cy]), wz[cz]);
+                acc = _mm512_add_ps(acc, _mm512_mul_ps(weight, v));
+            }
+        }
+        (acc, bx | by | bz)
+    }
+
+    /// [`velocity8_wrapped`] in sixteen lanes (AVX-512).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F and `vel.dims` passes [`lattices`].
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn velocity16(vel: Lattices, wrap: Wrap, g: [__m512; 3]) -> ([__m512; 3], __mmask16) {
+        let mut u = [_mm512_setzero_ps(); 3];
+        let mut bad = 0;
+        for (b, ub) in u.iter_mut().enumerate() {
+            let mut p = g;
+            p[b] = _mm512_add_ps(p[b], _mm512_set1_ps(0.5));
+            // SAFETY: the lattice of b has vel.data[b]'s length (fits).
+            let (v, lanes) = unsafe { stencil16(vel.data[b], vel.dims[b], wrap, p) };
+            *ub = v;
+            bad |= lanes;
+        }
+        (u, bad)
+    }
+
+    /// [`wrap8`] in sixteen lanes (AVX-512).
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn wrap16(x: __m512, n: usize) -> (__m512, __mmask16) {
+        let (lo, len) = (_mm512_set1_ps(-0.5), _mm512_set1_ps(n as f32));
+        let hi = _mm512_set1_ps(-0.5 + n as f32);
+        let below = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(x, lo);
+        let above = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(x, hi);
+        let (up, down) = (_mm512_add_ps(x, len), _mm512_sub_ps(x, len));
+        let far = (below & !_mm512_cmp_ps_mask::<_CMP_GE_OQ>(up, lo))
+            | (above & !_mm512_cmp_ps_mask::<_CMP_LT_OQ>(down, hi));
+        let y = _mm512_mask_mov_ps(_mm512_mask_mov_ps(x, below, up), above, down);
+        (y, far)
+    }
+
+    /// Whether this CPU has AVX-512F, for [`points16`].
+    pub(crate) fn has_avx512() -> bool {
+        is_x86_feature_detected!("avx512f")
+    }
+
+    /// [`points8`] for sixteen points (AVX-512F): the same operations in the
+    /// same order per lane, so the same bits.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F ([`has_avx512`]) and `vel.dims` passes [`lattices`].
+    #[target_feature(enable = "avx512f")]
+    pub(crate) unsafe fn points16(
+        vel: Lattices,
+        wrap: Wrap,
+        g: &mut [Vec3; 16],
+        dt_cells: f32,
+        backtrace: Backtrace,
+        into_box: Option<[usize; 3]>,
+    ) -> u32 {
+        if backtrace == Backtrace::Rk3 {
+            return 0xffff;
+        }
+        let c: [__m512; 3] = std::array::from_fn(|a| {
+            let lanes: [f32; 16] = std::array::from_fn(|l| g[l][a]);
+            // SAFETY: `lanes` holds sixteen f32.
+            unsafe { _mm512_loadu_ps(lanes.as_ptr()) }
+        });
+        let step = |u: [__m512; 3], s: f32| -> [__m512; 3] {
+            std::array::from_fn(|a| _mm512_sub_ps(c[a], _mm512_mul_ps(_mm512_set1_ps(s), u[a])))
+        };
+        // SAFETY (both): as this function's.
+        let (u0, mut bad) = unsafe { velocity16(vel, wrap, c) };
+        let mut p = if backtrace == Backtrace::Rk2 {
+            let (u1, bad1) = unsafe { velocity16(vel, wrap, step(u0, 0.5 * dt_cells)) };
+            bad |= bad1;
+            step(u1, dt_cells)
+        } else {
+            step(u0, dt_cells)
+        };
+        if let Some(n) = into_box {
+            for (pa, n) in p.iter_mut().zip(n) {
+                let (y, far) = wrap16(*pa, n);
+                *pa = y;
+                bad |= far;
+            }
+        }
+        let mut lanes = [[0.0f32; 16]; 3];
+        for (l, pa) in lanes.iter_mut().zip(p) {
+            // SAFETY: `l` holds sixteen f32.
+            unsafe { _mm512_storeu_ps(l.as_mut_ptr(), pa) };
+        }
+        for (l, gl) in g.iter_mut().enumerate() {
+            if bad & (1 << l) == 0 {
+                *gl = Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]);
+            }
+        }
+        u32::from(bad)
+    }
+}
+
+pub(crate) use avx512::{has_avx512, points16};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::advection::departure_point;
+    use crate::domain::Domain;
+    use crate::field::VectorField;
+    use crate::grid::face::BoxKind;
+    use crate::grid::FaceGrid;
+
+    /// A smooth swirl of speed up to about 3 cells per unit time on a box of 12 cells.
+    struct Swirl;
+
+    impl VectorField for Swirl {
+        fn eval(&self, p: Vec3) -> Vec3 {
+            3.0 * Vec3::new((2.0 * p.y).sin(), (1.5 * p.z).cos(), (p.x + p.y).sin())
+        }
+    }
+
+    /// Points spread over the box and half a cell beyond each face (where the
+    /// stencils wrap or clamp), the box's edges themselves, and −0.
+    fn points(n: usize) -> Vec<Vec3> {
+        let mut s = 7u32;
+        let mut next = || {
+            s = s.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (s >> 8) as f32 / (1 << 24) as f32
+        };
+        let span = n as f32 + 1.0;
+        let mut p: Vec<Vec3> = (0..4000)
+            .map(|_| Vec3::new(next(), next(), next()) * span - 1.0)
+            .collect();
+        let edges = [-0.5, -0.0, 0.0, n as f32 - 1.0, n as f32 - 0.5];
+        for (i, &x) in edges.iter().enumerate() {
+            for &y in &edges {
+                p.push(Vec3::new(x, y, edges[(i + 2) % edges.len()]));
+            }
+        }
+        p
+    }
+
+    #[test]
+    fn kernels_do_every_lane_and_match_the_scalar_backtrace_to_the_bit() {
+        let n = 12;
+        let domain = Domain::cube(n, 1.0).unwrap();
+        for kind in [BoxKind::Periodic, BoxKind::Closed] {
+            let vel = FaceGrid::from_field(domain, kind, &Swirl);
+            let lat = lattices(vel.sampler()).expect("the test needs AVX2");
+            let pts = points(n);
+            for bt in [Backtrace::Euler, Backtrace::Rk2] {
+                let dt_cells = 0.4;
+                let want: Vec<Vec3> = pts
+                    .iter()
+                    .map(|&p| departure_point(&vel, p, dt_cells, bt))
+                    .collect();
+                let same = |got: &[Vec3], want: &[Vec3]| {
+                    got.iter()
+                        .zip(want)
+                        .all(|(g, w)| (0..3).all(|a| g[a].to_bits() == w[a].to_bits()))
+                };
+                for (group, want) in pts.chunks_exact(8).zip(want.chunks_exact(8)) {
+                    let mut g: [Vec3; 8] = group.try_into().unwrap();
+                    // SAFETY: `lattices` checked AVX2.
+                    let left = unsafe { points8(lat, kind.wrap(), &mut g, dt_cells, bt, None) };
+                    assert_eq!(left, 0, "{kind} {bt:?}: lanes left at {group:?}");
+                    assert!(same(&g, want), "{kind} {bt:?}: {g:?} != {want:?}");
+                }
+                if !has_avx512() {
+                    continue;
+                }
+                for (group, want) in pts.chunks_exact(16).zip(want.chunks_exact(16)) {
+                    let mut g: [Vec3; 16] = group.try_into().unwrap();
+                    // SAFETY: `has_avx512`, `lattices`.
+                    let left = unsafe { points16(lat, kind.wrap(), &mut g, dt_cells, bt, None) };
+                    assert_eq!(left, 0, "{kind} {bt:?}: lanes left at {group:?}");
+                    assert!(same(&g, want), "{kind} {bt:?}: {g:?} != {want:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn kernels_leave_points_beyond_a_period_and_nan_to_the_scalar_path() {
+        let n = 12;
+        let vel = FaceGrid::from_field(Domain::cube(n, 1.0).unwrap(), BoxKind::Periodic, &Swirl);
+        let lat = lattices(vel.sampler()).expect("the test needs AVX2");
+        let mut g = [Vec3::splat(5.0); 8];
+        g[1].x = -20.0; // more than a period below: the stencil's remainder
+        g[3].y = 30.0;
+        g[6].z = f32::NAN;
+        let before = g;
+        // SAFETY: `lattices` checked AVX2.
+        let left = unsafe { points8(lat, Wrap::Periodic, &mut g, 0.4, Backtrace::Rk2, None) };
+        assert_eq!(left, 0b0100_1010);
+        assert_eq!(g[1], before[1], "left lanes are not written");
+        assert_eq!(g[0], departure_point(&vel, before[0], 0.4, Backtrace::Rk2));
+    }
 }

@@ -60,7 +60,7 @@ use std::sync::Arc;
 use glam::Vec3;
 
 use super::{wrap_grid, Buffer, StepInput};
-use crate::advection::{departure_points, Backtrace};
+use crate::advection::{departure_points_wrapped, Backtrace};
 use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
@@ -76,13 +76,10 @@ struct PastStep {
 
 impl PastStep {
     /// Move grid coordinates `g` back through this step (its backtrace,
-    /// [`departure_points`]: the AVX2 kernel eight at a time, the same bits
-    /// on any CPU), wrapped into the box.
+    /// [`departure_points_wrapped`]: the AVX2 kernel eight at a time, the
+    /// same bits on any CPU), wrapped into the box.
     fn walk_back(&self, d: &Domain, g: &mut [Vec3]) {
-        departure_points(&self.velocity, g, self.dt / d.cell, self.backtrace);
-        for p in g {
-            *p = wrap_grid(*p, d.dims);
-        }
+        departure_points_wrapped(&self.velocity, g, self.dt / d.cell, self.backtrace);
     }
 }
 
