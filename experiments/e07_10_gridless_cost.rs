@@ -29,13 +29,27 @@
 //! times are wall times on a shared machine: relative measures, as the
 //! notes say of theirs.
 //!
+//! The series evaluate every sample, as the notes' renderer does (their
+//! wall's bound is dropped). The worst point (`k = F`, fine march) is then
+//! rendered once more with empty-space skipping (`render::occupancy`: the
+//! bound of the gridless chain over the frame-0 row grids); the manifest's
+//! `empty_space` holds the bound's build time and flagged share of the
+//! box, both renders' seconds, samples and samples/s, the samples ratio
+//! (load-independent), the speedup and whether the picture is the same.
+//!
 //! Measured (default size, a loaded machine): memory grows 0.375 MiB per
 //! frame counted, 0.378 heap and 0.368–0.370 RSS (r² ≥ 0.9995): one 32³
 //! velocity grid per gridless frame, as the notes expect.
 //!
+//! Measured (default size, load ≈ 6): the worst point 7.63 s evaluating
+//! every sample, 1.32 s with skipping (0.215 of the samples), the same
+//! picture; at `--full` size the worst point alone takes 290 s and 33 s
+//! (README, "Empty-space skipping").
+//!
 //! Run: `smokelab experiment 07-10` (about 20 s on 2 cores: 32³, 30
 //! frames, 7 values of `k`, 160×120; `--full` 50³, 60 frames, 640×480 —
-//! hours; `--smoke` 16³, 6 frames, 64×48).
+//! about 3.5 unskipped worst points, tens of minutes; `--smoke` 16³, 6
+//! frames, 64×48).
 
 use std::time::Instant;
 
