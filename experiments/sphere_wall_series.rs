@@ -30,7 +30,7 @@ use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::render::camera::Camera;
 use smokelab::render::output::{self, Display};
 use smokelab::render::phase::Phase;
-use smokelab::render::{look, render, RenderSettings, RenderStats, Scene};
+use smokelab::render::{look, render, RenderSettings, RenderStats, Scene, Volume};
 use smokelab::scenario::sphere_wall::{
     AdvectedWall, FlowHistory, GriddedWall, SelmaWall, SphereWallConfig, Wall,
 };
@@ -161,7 +161,10 @@ fn wall_scene(state: &AdvectedWall, bounds: Domain) -> Scene {
         .enumerate()
         .map(|(i, r)| {
             let color = ROW_COLORS[i % ROW_COLORS.len()];
-            look::smoke(format!("row{i}"), r.clone(), color, KAPPA, look::GLOW)
+            Volume {
+                occupancy: state.occupancy.clone(),
+                ..look::smoke(format!("row{i}"), r.clone(), color, KAPPA, look::GLOW)
+            }
         })
         .collect();
     Scene {

@@ -32,6 +32,7 @@ fn volume(density: Scalar, emission: Vec3, scattering: Vec3, kappa: f32) -> Volu
         emission,
         scattering,
         kappa,
+        occupancy: None,
     }
 }
 

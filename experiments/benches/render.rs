@@ -5,11 +5,15 @@
 //! density samples per second (light-grid construction included in the time).
 //!
 //! `render_gridless_wall` is fig 7.10's worst point (07-10 at `--full`:
-//! the 50³ sphere wall held gridless for all 60 frames, march step
-//! cell/10) at 64×48 instead of 640×480: elements/s = camera samples per
-//! second. The setup prints the sample count of the full 640×480 render
-//! (taken from the unadvected wall, which marches the same rays), so the
-//! full render's time is extrapolated as that count over the measured rate.
+//! the 50³ sphere wall's frame-0 row grids composed with all 60 gridless
+//! frames, march step cell/10) at 64×48 instead of 640×480, with the
+//! empty-space bound (`skip`) and without (`no_skip`): elements/s = march
+//! sub-steps per second (the samples without the bound; with it only a
+//! share of them is evaluated). The setup prints the sub-step count of the
+//! full 640×480 render (taken from the unadvected wall without the bound,
+//! which marches the same rays), so the full render's time is extrapolated
+//! as that count over the measured rate, and the samples evaluated with and
+//! without the bound and the time to build it.
 //!
 //! Run: `cargo bench --bench render` (a few minutes on 2 cores);
 //! `-- render_gridless_wall` for the fig 7.10 point alone.
@@ -24,9 +28,11 @@ use glam::Vec3;
 use smokelab::domain::Domain;
 use smokelab::render::camera::Camera;
 use smokelab::render::phase::Phase;
-use smokelab::render::{look, render, RenderSettings, Scene};
+use smokelab::render::{look, render, RenderSettings, Scene, Volume};
 use smokelab::scenario::hot_cold::HotColdConfig;
-use smokelab::scenario::sphere_wall::{AdvectedWall, FlowHistory, SphereWallConfig, Wall};
+use smokelab::scenario::sphere_wall::{
+    AdvectedWall, FlowHistory, GriddedWall, SphereWallConfig, Wall,
+};
 use smokelab_app::frames::simulation_scene;
 
 fn bench_render(c: &mut Criterion) {
@@ -65,18 +71,22 @@ fn bench_render(c: &mut Criterion) {
 
 /// The sphere wall's rows as 07-10 renders them (experiments'
 /// `sphere_wall_series::render_wall`: κ = 4, the key light, the framed
-/// slab around the wall), march step `cell / 10`, `width × height`.
+/// slab around the wall), march step `cell / 10`, `width × height`; with
+/// the wall's empty-space bound if `skip`.
 fn wall_render(
     state: &AdvectedWall,
     d: Domain,
-    width: u32,
-    height: u32,
+    (width, height): (u32, u32),
+    skip: bool,
 ) -> (Scene, RenderSettings) {
     let volumes = state
         .rows
         .iter()
         .enumerate()
-        .map(|(i, r)| look::smoke(format!("row{i}"), r.clone(), Vec3::ONE, 4.0, look::GLOW))
+        .map(|(i, r)| Volume {
+            occupancy: state.occupancy.clone().filter(|_| skip),
+            ..look::smoke(format!("row{i}"), r.clone(), Vec3::ONE, 4.0, look::GLOW)
+        })
         .collect();
     let scene = Scene {
         bounds: d,
@@ -103,27 +113,42 @@ fn bench_gridless_wall(c: &mut Criterion) {
     let flow = FlowHistory::record(&config).expect("valid config");
     let wall = Wall::new(&config);
     let d = flow.domain;
-    let plain = AdvectedWall::gridless(&wall, None, &flow, 0).expect("k = 0");
-    let (scene, settings) = wall_render(&plain, d, 640, 480);
+    let base = GriddedWall::new(&wall, d);
+    let plain = AdvectedWall::gridded(&base);
+    let (scene, settings) = wall_render(&plain, d, (640, 480), false);
     let full = render(&scene, &settings).expect("valid render").stats;
-    eprintln!("render_gridless_wall: 640x480 has {} samples", full.samples);
-    let state = AdvectedWall::gridless(&wall, None, &flow, config.frames).expect("k = F");
-    let (scene, settings) = wall_render(&state, d, 64, 48);
-    let probe = render(&scene, &settings).expect("valid render").stats;
     eprintln!(
-        "render_gridless_wall: 64x48 has {} samples, one render {:.2} s",
-        probe.samples, probe.seconds
+        "render_gridless_wall: 640x480 has {} sub-steps",
+        full.samples
+    );
+    let start = std::time::Instant::now();
+    let state = AdvectedWall::gridless(&wall, Some(&base), &flow, config.frames).expect("k = F");
+    eprintln!(
+        "render_gridless_wall: chain and bound built in {:.2} s, {:.3} of the box flagged",
+        start.elapsed().as_secs_f64(),
+        state.occupancy.as_ref().map_or(1.0, |o| o.fraction())
     );
     let mut group = c.benchmark_group("render_gridless_wall");
     group.sample_size(10);
     group.warm_up_time(Duration::from_secs(1));
-    group.throughput(Throughput::Elements(probe.samples));
-    group.measurement_time(Duration::from_secs_f64(
-        (12.0 * probe.seconds).clamp(3.0, 60.0),
-    ));
-    group.bench_function("k60_cell_over_10_64x48", |b| {
-        b.iter(|| black_box(render(&scene, &settings).expect("valid render")))
-    });
+    for (name, skip) in [
+        ("k60_cell_over_10_64x48_skip", true),
+        ("k60_cell_over_10_64x48_no_skip", false),
+    ] {
+        let (scene, settings) = wall_render(&state, d, (64, 48), skip);
+        let probe = render(&scene, &settings).expect("valid render").stats;
+        eprintln!(
+            "render_gridless_wall {name}: {} samples, {} skipped, one render {:.2} s",
+            probe.samples, probe.skipped, probe.seconds
+        );
+        group.throughput(Throughput::Elements(probe.samples + probe.skipped));
+        group.measurement_time(Duration::from_secs_f64(
+            (12.0 * probe.seconds).clamp(3.0, 60.0),
+        ));
+        group.bench_function(name, |b| {
+            b.iter(|| black_box(render(&scene, &settings).expect("valid render")))
+        });
+    }
     group.finish();
 }
 

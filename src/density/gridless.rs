@@ -174,6 +174,22 @@ impl GridlessField {
     pub fn velocities(&self) -> impl Iterator<Item = &Arc<FaceGrid>> {
         self.steps.iter().map(|s| &s.velocity)
     }
+
+    /// The stored steps, oldest first: velocity grid, Δt and backtrace
+    /// (what a bound on the chain's support needs, `render::occupancy`).
+    pub fn history(&self) -> impl DoubleEndedIterator<Item = (&FaceGrid, f32, Backtrace)> {
+        self.steps.iter().map(|s| (&*s.velocity, s.dt, s.backtrace))
+    }
+
+    /// The velocity grid's domain, the box the walk is wrapped into.
+    pub fn domain(&self) -> &Domain {
+        &self.domain
+    }
+
+    /// Whether the chain injects a source `S Δt` at every step.
+    pub fn has_source(&self) -> bool {
+        self.source.is_some()
+    }
 }
 
 impl BackwardMap for GridlessField {

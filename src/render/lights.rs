@@ -263,6 +263,7 @@ mod tests {
             emission: Vec3::ZERO,
             scattering: Vec3::ONE,
             kappa: 4.0,
+            occupancy: None,
         };
         let (sigma, _) = extinction_grid(&d, &[vol]);
         for position in [Vec3::new(3.0, 2.5, -1.0), Vec3::new(1.0, 0.6, 0.5)] {
@@ -295,6 +296,7 @@ mod tests {
             emission: Vec3::ZERO,
             scattering: Vec3::ONE,
             kappa: 2.0,
+            occupancy: None,
         };
         let (sigma, queries) = extinction_grid(&d, &[vol]);
         assert_eq!(queries, 8000);

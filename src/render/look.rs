@@ -57,6 +57,7 @@ pub fn smoke(
         emission: glow * kappa * color,
         scattering: kappa * color,
         kappa,
+        occupancy: None,
     }
 }
 

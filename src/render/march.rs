@@ -26,6 +26,14 @@
 //! once for the whole batch with `eval_batch`, which keeps expensive
 //! (gridless) densities cheap per point. A ray retires when it leaves the box
 //! or when `T < 10⁻⁴`.
+//!
+//! Empty space: when every volume has an [`Occupancy`], a sub-step whose
+//! sample point lies where all of them are clear is not sampled — its
+//! densities are `≤ 0`, so eqs A.24–A.25 would leave `L` and `T` as they
+//! are. Its position and jitter are drawn exactly as without the bound
+//! (same `t`, same random number), so the image is the same to the bit and
+//! only the number of density queries changes; a ray keeps stepping until
+//! it has [`CHUNK`] samples for the batch or leaves the box.
 
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
@@ -33,6 +41,7 @@ use rand_pcg::Pcg32;
 
 use super::camera::RayGen;
 use super::lights::LitLight;
+use super::occupancy::Occupancy;
 use super::phase::Phase;
 use super::{ray_box, Volume};
 
@@ -70,6 +79,8 @@ pub struct Marcher<'a> {
     pub seed: u64,
     /// Image width.
     pub width: u32,
+    /// Skip sub-steps where all of these are clear (empty: no skipping).
+    pub occupancy: &'a [&'a Occupancy],
 }
 
 /// Per-thread buffers, reused across rows.
@@ -107,6 +118,8 @@ pub struct RowCounts {
     pub rays: u64,
     /// Sample points at which the densities were queried.
     pub samples: u64,
+    /// Sub-steps not sampled: every occupancy clear at their point.
+    pub skipped: u64,
 }
 
 /// SplitMix64 finaliser: decorrelates consecutive pixel indices.
@@ -164,7 +177,8 @@ impl Marcher<'_> {
             s.owner.clear();
             s.length.clear();
             for (ri, r) in s.rays.iter_mut().enumerate() {
-                for _ in 0..CHUNK {
+                let mut taken = 0;
+                while taken < CHUNK {
                     let left = r.t_end - r.t;
                     if left <= eps {
                         r.t = r.t_end;
@@ -176,10 +190,16 @@ impl Marcher<'_> {
                     } else {
                         0.5
                     };
-                    s.points.push(origin + (r.t + u * h) * r.dir);
+                    let x = origin + (r.t + u * h) * r.dir;
+                    r.t += h;
+                    if self.is_empty(x) {
+                        counts.skipped += 1;
+                        continue;
+                    }
+                    s.points.push(x);
                     s.owner.push(ri as u32);
                     s.length.push(h);
-                    r.t += h;
+                    taken += 1;
                 }
             }
             let n = s.points.len();
@@ -207,6 +227,12 @@ impl Marcher<'_> {
             });
         }
         counts
+    }
+
+    /// Whether every volume is known to be `≤ 0` at `x`.
+    #[inline]
+    fn is_empty(&self, x: Vec3) -> bool {
+        !self.occupancy.is_empty() && self.occupancy.iter().all(|o| !o.may_be_positive(x))
     }
 
     /// One sub-step of eqs A.24–A.25 at sample `x` of length `h`.

@@ -11,6 +11,7 @@
 //! - [`phase`] — isotropic, Henyey–Greenstein (A.8), Fournier–Forand (A.9–A.12);
 //! - [`lights`] — point lights and their transmissivity grids (A.4–A.7);
 //! - [`march`] — the ray march (A.22–A.29);
+//! - [`occupancy`] — where a density may be positive (empty-space skipping);
 //! - [`output`] — EXR (linear, premultiplied) and sRGB PNG previews;
 //! - [`look`] — the default look of smoke renders (colours, light, exposure).
 //!
@@ -28,6 +29,7 @@
 //!         emission: Vec3::new(1.0, 0.3, 0.1),
 //!         scattering: Vec3::ZERO,
 //!         kappa: 4.0,
+//!         occupancy: None,
 //!     }],
 //!     lights: vec![],
 //!     phase: render::phase::Phase::Isotropic,
@@ -42,10 +44,13 @@ pub mod camera;
 pub mod lights;
 pub mod look;
 pub mod march;
+pub mod occupancy;
 pub mod output;
 pub mod phase;
 
 use std::time::Instant;
+
+use std::sync::Arc;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -57,6 +62,7 @@ use crate::field::Scalar;
 use camera::Camera;
 use lights::{LitLight, PointLight};
 use march::{Marcher, RowScratch};
+use occupancy::Occupancy;
 use phase::Phase;
 
 /// One density field and how it looks.
@@ -73,6 +79,10 @@ pub struct Volume {
     pub scattering: Vec3,
     /// Extinction coefficient κ per unit density.
     pub kappa: f32,
+    /// Where the density may be positive (`None`: anywhere). When every
+    /// volume has one, the march does not sample where all are clear.
+    #[serde(skip)]
+    pub occupancy: Option<Arc<Occupancy>>,
 }
 
 /// What is rendered: volumes, lights, phase function and the box rays are
@@ -162,6 +172,9 @@ pub struct RenderStats {
     pub rays: u64,
     /// Camera-ray sample points (each queries every volume once).
     pub samples: u64,
+    /// Camera-ray sub-steps not sampled: every volume's [`Occupancy`] is
+    /// clear there (`samples + skipped` is what the march takes without).
+    pub skipped: u64,
     /// Density queries made for the light grids.
     pub light_grid_queries: u64,
     /// Seconds building the light grids.
@@ -170,6 +183,8 @@ pub struct RenderStats {
     pub seconds: f64,
     /// `samples / seconds`.
     pub samples_per_second: f64,
+    /// `(samples + skipped) / seconds`: sub-steps marched per second.
+    pub substeps_per_second: f64,
 }
 
 /// An image and its statistics.
@@ -245,6 +260,7 @@ pub fn render(scene: &Scene, settings: &RenderSettings) -> Result<Rendered, Inpu
     let light_seconds = start.elapsed().as_secs_f64();
     let cam = settings.camera;
     let step = settings.step.unwrap_or(bounds.cell);
+    let occupancy = empty_space(&scene.volumes);
     let marcher = Marcher {
         rays: cam.rays(),
         lo: bounds.origin,
@@ -256,6 +272,7 @@ pub fn render(scene: &Scene, settings: &RenderSettings) -> Result<Rendered, Inpu
         jitter: settings.jitter,
         seed: settings.seed,
         width: cam.width,
+        occupancy: &occupancy,
     };
     let mut rgba = vec![0.0f32; 4 * cam.width as usize * cam.height as usize];
     let counts: Vec<march::RowCounts> = rgba
@@ -268,6 +285,7 @@ pub fn render(scene: &Scene, settings: &RenderSettings) -> Result<Rendered, Inpu
     let seconds = start.elapsed().as_secs_f64();
     let rays = counts.iter().map(|c| c.rays).sum();
     let samples = counts.iter().map(|c| c.samples).sum::<u64>();
+    let skipped = counts.iter().map(|c| c.skipped).sum::<u64>();
     Ok(Rendered {
         image: Image {
             width: cam.width,
@@ -281,12 +299,31 @@ pub fn render(scene: &Scene, settings: &RenderSettings) -> Result<Rendered, Inpu
             substeps: settings.substeps,
             rays,
             samples,
+            skipped,
             light_grid_queries,
             light_seconds,
             seconds,
             samples_per_second: samples as f64 / seconds.max(1e-12),
+            substeps_per_second: (samples + skipped) as f64 / seconds.max(1e-12),
         },
     })
+}
+
+/// The bounds the march may skip by: every volume's occupancy, each
+/// shared one once; none if some volume has none.
+fn empty_space(volumes: &[Volume]) -> Vec<&Occupancy> {
+    let mut out: Vec<&Occupancy> = vec![];
+    for v in volumes {
+        match &v.occupancy {
+            None => return vec![],
+            Some(o) => {
+                if !out.iter().any(|&p| std::ptr::eq(p, &**o)) {
+                    out.push(o);
+                }
+            }
+        }
+    }
+    out
 }
 
 /// The transmissivity grid of every light (none when nothing scatters).

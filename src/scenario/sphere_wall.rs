@@ -41,6 +41,7 @@ use crate::domain::Domain;
 use crate::error::{check_non_negative, check_positive, InputError};
 use crate::field::{memo, ops, Scalar, ScalarField};
 use crate::grid::{FaceGrid, ScalarGrid};
+use crate::render::occupancy::{self, Occupancy, Support};
 use crate::scenario::hot_cold::HotColdConfig;
 use crate::scenario::{Scenario, SolverConfig};
 
@@ -340,15 +341,25 @@ pub struct AdvectedWall {
     pub rows: Vec<Scalar>,
     /// Buffers held by the representation.
     pub buffers: Vec<Buffer>,
+    /// Where any row may be positive (`render::occupancy`), when the rows
+    /// are known grids, composed or not (`None`: the analytic wall, SELMA).
+    pub occupancy: Option<Arc<Occupancy>>,
 }
 
 impl AdvectedWall {
     /// The row grids as they are (all frames gridded).
     pub fn gridded(gridded: &GriddedWall) -> Self {
         let grids: Vec<Arc<ScalarGrid>> = gridded.grids.iter().cloned().map(Arc::new).collect();
+        let support = Support::of_grids(&gridded.grids.iter().collect::<Vec<_>>());
+        let domain = *gridded.scratch.domain();
         Self {
             buffers: grids.iter().map(|g| Buffer::of_scalar(g)).collect(),
             rows: grids.into_iter().map(|g| g as Scalar).collect(),
+            occupancy: Some(Arc::new(Occupancy::of_support(
+                domain,
+                &support,
+                occupancy::BLOCK,
+            ))),
         }
     }
 
@@ -368,6 +379,7 @@ impl AdvectedWall {
                 Self {
                     rows: wall.rows.clone(),
                     buffers: vec![],
+                    occupancy: None,
                 },
             ),
         };
@@ -386,6 +398,15 @@ impl AdvectedWall {
         }
         this.buffers
             .extend(chain.velocities().map(|u| Buffer::of_faces(u)));
+        this.occupancy = base.map(|g| {
+            let support = Support::of_grids(&g.grids.iter().collect::<Vec<_>>());
+            Arc::new(Occupancy::gridless(
+                &chain,
+                &support,
+                None,
+                occupancy::BLOCK,
+            ))
+        });
         let map = memo::memo(Arc::new(MapField(chain)));
         this.rows = this
             .rows
@@ -407,6 +428,7 @@ impl AdvectedWall {
                 .map(|r| ops::compose(r.clone(), map.clone()))
                 .collect(),
             buffers,
+            occupancy: None,
         }
     }
 
