@@ -183,7 +183,7 @@ impl NoiseArgs {
         let n = self.res as f64 * p.period as f64 / self.size as f64;
         let rounded = n.round();
         if (n - rounded).abs() > 1e-3 * n
-            || rounded as usize % 2 != 0
+            || !(rounded as usize).is_multiple_of(2)
             || !(8.0..=256.0).contains(&rounded)
         {
             return Err(InputError::new(format!(

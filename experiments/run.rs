@@ -84,7 +84,7 @@ impl SaveFrames {
     pub fn contains(&self, frame: usize, last: usize) -> bool {
         match self {
             SaveFrames::Every(0) => false,
-            SaveFrames::Every(k) => frame % k == 0 || frame == last,
+            SaveFrames::Every(k) => frame.is_multiple_of(*k) || frame == last,
             SaveFrames::List(l) => l.contains(&frame),
         }
     }

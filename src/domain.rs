@@ -45,7 +45,7 @@ impl Domain {
             }
         }
         let cells = dims.iter().try_fold(1u64, |a, &n| a.checked_mul(n as u64));
-        if !cells.is_some_and(|c| c <= MAX_CELLS) {
+        if cells.is_none_or(|c| c > MAX_CELLS) {
             return Err(InputError::new(format!(
                 "{} × {} × {} cells is more than the {MAX_CELLS} cells a grid may hold; use a smaller resolution",
                 dims[0], dims[1], dims[2]

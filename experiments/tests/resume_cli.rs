@@ -130,7 +130,7 @@ fn killed_and_resumed(extra: &[&str], check_killed: impl Fn(&Path)) {
     assert_eq!(m["status"], "complete");
     let from = m["extra"]["resumed_from"].as_u64().unwrap() as usize;
     assert!(
-        from % 4 == 0 && (4..16).contains(&from) && from <= killed_rows,
+        from.is_multiple_of(4) && (4..16).contains(&from) && from <= killed_rows,
         "{from}"
     );
     eprintln!("{extra:?}: killed after {killed_rows} rows, resumed from step {from}");

@@ -596,9 +596,7 @@ pub(crate) unsafe fn points8(
 }
 
 /// The sixteen-lane (AVX-512F) kernel for arbitrary points, [`points16`].
-/// Its intrinsics are stable since Rust 1.89, later than the workspace's
-/// `rust-version` (1.80); on an older toolchain this module does not build.
-#[clippy::msrv = "1.89"]
+/// Its intrinsics are stable since Rust 1.89, the workspace's `rust-version`.
 mod avx512 {
     use super::*;
 

@@ -471,9 +471,8 @@ impl DensityModel {
             (DensityModel::Selma(s), DensityState::Selma(state)) => {
                 let (md, d) = (*s.map_domain(), *s.density().domain());
                 let on = |g: &Domain, e: &Domain| g == e;
-                let map_on = (state.map.as_ref()).map_or(true, |m| {
-                    on(m.disp.domain(), &md) && on(m.lattice.domain(), &md)
-                });
+                let map_on = (state.map.as_ref())
+                    .is_none_or(|m| on(m.disp.domain(), &md) && on(m.lattice.domain(), &md));
                 if !(map_on && on(state.reference.domain(), &md) && on(state.centres.domain(), &d))
                 {
                     return Err(mismatch());

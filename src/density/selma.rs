@@ -622,8 +622,10 @@ impl Selma {
     pub fn restore(&mut self, state: SelmaState) {
         let md = *self.map_domain();
         assert!(
-            state.map.as_ref().map_or(true, |m| *m.disp.domain() == md
-                && *m.lattice.domain() == md)
+            state
+                .map
+                .as_ref()
+                .is_none_or(|m| *m.disp.domain() == md && *m.lattice.domain() == md)
                 && *state.reference.domain() == md
                 && state.centres.domain() == self.centres.domain(),
             "selma: checkpoint grids on another domain"

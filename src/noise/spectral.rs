@@ -134,7 +134,7 @@ impl Default for SpectralParams {
 impl SpectralParams {
     /// Check the parameters, naming the bad value.
     pub fn validate(&self) -> Result<(), InputError> {
-        if !(8..=256).contains(&self.res) || self.res % 2 != 0 {
+        if !(8..=256).contains(&self.res) || !self.res.is_multiple_of(2) {
             return Err(InputError::new(format!(
                 "spectral tile resolution is {}; it must be even and in 8..=256",
                 self.res
