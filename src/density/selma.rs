@@ -369,21 +369,18 @@ impl SelmaMap {
         let [nx, ny, nz] = md.dims;
         let (size, h) = (md.size(), md.cell);
         let y = self.lattice.as_vec3();
-        let unwrap = |d: Vec3| d - size * (d / size).round();
         (0..nz)
             .into_par_iter()
             .map(|k| {
                 let mut m = 0.0f32;
                 for j in 0..ny {
-                    for i in 0..nx {
-                        let p = y[md.index(i, j, k)];
-                        let nb = [
-                            (y[md.index((i + 1) % nx, j, k)], Vec3::X),
-                            (y[md.index(i, (j + 1) % ny, k)], Vec3::Y),
-                            (y[md.index(i, j, (k + 1) % nz)], Vec3::Z),
-                        ];
-                        for (q, e) in nb {
-                            m = m.max((unwrap(q - p) - h * e).length());
+                    let row = |j, k| &y[md.index(0, j, k)..][..nx];
+                    let (here, up_y, up_z) =
+                        (row(j, k), row((j + 1) % ny, k), row(j, (k + 1) % nz));
+                    for (i, &p) in here.iter().enumerate() {
+                        let up_x = here[if i + 1 == nx { 0 } else { i + 1 }];
+                        for (q, e) in [(up_x, Vec3::X), (up_y[i], Vec3::Y), (up_z[i], Vec3::Z)] {
+                            m = m.max((nearest_image(q - p, size) - h * e).length());
                         }
                     }
                 }
@@ -824,6 +821,18 @@ fn sub_points(md: &Domain, centres: &[Vec3], out: &mut [Vec3]) {
         for (o, s) in out.iter_mut().zip(SUB) {
             *o = wrap_world(md, c + s * md.cell);
         }
+    }
+}
+
+/// The periodic image of the offset `d` nearest zero, `d − L·round(d/L)`
+/// (box size `L`): `d` itself within half a box, without the rounding.
+#[inline(always)]
+fn nearest_image(d: Vec3, size: Vec3) -> Vec3 {
+    let r = d / size;
+    if r.abs().max_element() < 0.5 {
+        d
+    } else {
+        d - size * r.round()
     }
 }
 
