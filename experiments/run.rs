@@ -157,13 +157,12 @@ pub struct Checkpointing {
 /// Fixed random points at which the interpolant's divergence is measured.
 pub const PROBE_POINTS: usize = 4096;
 
-/// The measures taken after every step: one pass over the faces or cells
-/// each, and the interpolant at [`PROBE_POINTS`] points.
+/// The measures taken after every step: one pass over the faces, one over
+/// the two gases' cells, and the interpolant at [`PROBE_POINTS`] points.
 pub struct StepMeasures {
-    /// The velocity's mirror error and `max |u_a|`.
-    pub vel_mirror: metrics::VelocityMirror,
-    /// The compact divergence after projection.
-    pub div: metrics::RmsMax,
+    /// The compact divergence after projection, the velocity's mirror
+    /// error and `max |u_a|`.
+    pub velocity: metrics::VelocityStats,
     /// The divergence tracers feel, relative to `|∇u|`.
     pub div_interp: metrics::RmsMax,
     /// The two gases' mirror error (two gases only).
@@ -174,8 +173,7 @@ impl StepMeasures {
     /// Measure `sim`'s current state, the interpolant at `points`.
     pub fn take(sim: &Simulation, points: &[Vec3]) -> Self {
         Self {
-            vel_mirror: metrics::velocity_mirror(&sim.velocity),
-            div: metrics::divergence_stats(&sim.velocity),
+            velocity: metrics::velocity_stats(&sim.velocity),
             div_interp: metrics::interpolant_divergence(&sim.velocity, sim.domain(), points),
             mirror: (sim.gases.len() == 2)
                 .then(|| metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density())),
@@ -227,7 +225,7 @@ pub const CFL_WARNING: f32 = 10.0;
 ///   Nyquist index) — see [`smokelab::density::probe`]; the fine measures
 ///   are `NaN` on steps without them;
 /// - `mirror_error` (two gases; densities at the cell centres),
-///   `vel_mirror_error` ([`metrics::velocity_mirror`]), `density_bytes`
+///   `vel_mirror_error` ([`metrics::velocity_stats`]), `density_bytes`
 ///   (all gases' representations, shared buffers once), `substeps` (QUICK);
 /// - with obstacles, [`ObstacleColumns`];
 /// - wall seconds per stage, [`StageColumns`].
@@ -473,11 +471,11 @@ fn drive<C: Serialize>(
                 );
             }
             let StepMeasures {
-                vel_mirror,
-                div,
+                velocity,
                 div_interp,
                 mirror,
             } = timed(&mut times.metrics, || StepMeasures::take(sim, &points));
+            let (div, vel_mirror) = (velocity.divergence, velocity.mirror);
             let max_u = vel_mirror.max_norm;
             let cfl = max_u * sim.params.dt / sim.domain().cell;
             let measuring = frame % every == 0 || frame == opts.frames;

@@ -21,7 +21,7 @@
 //! for _ in 0..config.solver.frames {
 //!     sim.step();
 //! }
-//! let div = smokelab::metrics::divergence_stats(&sim.velocity);
+//! let div = smokelab::metrics::velocity_stats(&sim.velocity).divergence;
 //! assert!(div.max <= 1e-4 * sim.velocity.max_norm() / sim.domain().cell);
 //! ```
 

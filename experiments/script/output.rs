@@ -292,9 +292,9 @@ impl Recorder {
         let domain = *sim.domain();
         let probes = self.probes.get_or_insert_with(|| Probes::new(domain));
         let v = &sim.velocity;
-        let mirror = metrics::velocity_mirror(v);
+        let stats = metrics::velocity_stats(v);
+        let (mirror, div) = (stats.mirror, stats.divergence);
         let max_u = mirror.max_norm;
-        let div = metrics::divergence_stats(v);
         let interp = metrics::interpolant_divergence(v, &domain, &probes.points);
         let ke_top_octave = if fine && v.kind() == BoxKind::Periodic {
             metrics::top_octave_share(&mut probes.spectrum, v)

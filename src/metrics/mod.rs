@@ -21,31 +21,6 @@ pub struct RmsMax {
     pub max: f32,
 }
 
-/// RMS and max of the compact divergence `D u` ([`FaceGrid::divergence`]),
-/// the operator the pressure solve annihilates: round-off after a step.
-/// One z-slab at a time (no grid is allocated); the per-slab sums are added
-/// in slab order, so the result does not depend on the thread count.
-pub fn divergence_stats(vel: &FaceGrid) -> RmsMax {
-    let [nx, ny, nz] = vel.domain().dims;
-    let slabs: Vec<(f64, f32)> = (0..nz)
-        .into_par_iter()
-        .map_init(
-            || vec![0.0f32; nx * ny],
-            |slab, k| {
-                vel.divergence_slab(k, slab);
-                squares_and_max(slab)
-            },
-        )
-        .collect();
-    let (sum, max) = slabs
-        .iter()
-        .fold((0.0, 0.0f32), |(s, m), &(ds, dm)| (s + ds, m.max(dm)));
-    RmsMax {
-        rms: (sum / vel.domain().len() as f64).sqrt() as f32,
-        max,
-    }
-}
-
 /// `Σ v²` (in f64) and `max |v|` of a slice, in eight independent lanes
 /// (a fixed order, so the sum does not depend on how the caller splits its
 /// work; one running sum or max would serialise on its latency).
@@ -171,52 +146,100 @@ pub fn mirror_error(a: &ScalarGrid, b: &ScalarGrid) -> f32 {
     }
 }
 
-/// A velocity's mirror-symmetry error and its largest face value, in one
-/// pass over the faces.
+/// A velocity's mirror-symmetry error and its largest face value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VelocityMirror {
-    /// `max |difference| / max |u_a|` ([`velocity_mirror`]; 0 for a fluid at rest).
+    /// `max |difference| / max |u_a|` ([`velocity_stats`]; 0 for a fluid at rest).
     pub error: f32,
     /// `max_a max_faces |u_a|`, [`FaceGrid::max_norm`].
     pub max_norm: f32,
 }
 
-/// Mirror-symmetry error of a velocity through the mid-plane `y = L/2`: the
-/// mirror image of `(u, v, w)` is `(u, −v, w)` reflected, so `u` and `w` at
-/// row `j` compare with row `ny − 1 − j`, and `v` on the y-face `j` with
-/// minus the y-face `ny − j` (wrapped in a periodic box);
-/// `max |difference| / max |u_a|` over all faces (0 for a fluid at rest),
-/// and the `max |u_a|` it divides by.
-pub fn velocity_mirror(vel: &FaceGrid) -> VelocityMirror {
+/// What is measured of a velocity after every step, in one pass over its
+/// faces ([`velocity_stats`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VelocityStats {
+    /// RMS and max of the compact divergence `D u` ([`FaceGrid::divergence`]),
+    /// the operator the pressure solve annihilates: round-off after a step.
+    pub divergence: RmsMax,
+    /// Mirror-symmetry error through the mid-plane `y = L/2`, and `max |u_a|`.
+    pub mirror: VelocityMirror,
+}
+
+/// The compact divergence's rms and max, and the mirror-symmetry error of a
+/// velocity through the mid-plane `y = L/2` — the mirror image of `(u, v,
+/// w)` is `(u, −v, w)` reflected, so `u` and `w` at row `j` compare with row
+/// `ny − 1 − j`, and `v` on the y-face `j` with minus the y-face `ny − j`
+/// (wrapped in a periodic box); `max |difference| / max |u_a|` over all
+/// faces (0 for a fluid at rest) — with the `max |u_a|` it divides by.
+///
+/// One z-slab at a time: the divergence of slab `k` (no grid is allocated)
+/// and the mirror of every component's slab `k` while it is in cache; the
+/// per-slab sums are added in slab order, so the result does not depend on
+/// the thread count.
+pub fn velocity_stats(vel: &FaceGrid) -> VelocityStats {
+    let [nx, ny, nz] = vel.domain().dims;
+    let slabs: Vec<(f64, f32, [f32; 2])> = (0..nz)
+        .into_par_iter()
+        .map_init(
+            || vec![0.0f32; nx * ny],
+            |div, k| {
+                vel.divergence_slab(k, div);
+                let (squares, max) = squares_and_max(div);
+                let mirror = (0..3)
+                    .map(|a| mirror_slab(vel, a, k))
+                    .fold([0.0; 2], larger2);
+                (squares, max, mirror)
+            },
+        )
+        .collect();
+    // A closed box's top wall of w-faces, beyond the cells' slabs.
+    let wall = (nz..vel.face_dims(2)[2])
+        .map(|k| mirror_slab(vel, 2, k))
+        .fold([0.0; 2], larger2);
+    let (sum, max, [diff, scale]) = slabs
+        .iter()
+        .fold((0.0, 0.0f32, wall), |(s, m, r), &(ds, dm, dr)| {
+            (s + ds, larger(m, dm), larger2(r, dr))
+        });
+    VelocityStats {
+        divergence: RmsMax {
+            rms: (sum / vel.domain().len() as f64).sqrt() as f32,
+            max,
+        },
+        mirror: VelocityMirror {
+            error: if scale == 0.0 { 0.0 } else { diff / scale },
+            max_norm: scale,
+        },
+    }
+}
+
+/// Of component `a`'s z-slab `k` of faces: `max |u_a − mirror image|` and
+/// `max |u_a|` ([`velocity_stats`]).
+fn mirror_slab(vel: &FaceGrid, a: usize, k: usize) -> [f32; 2] {
     let ny = vel.domain().dims[1];
-    let (mut diff, mut scale) = (0.0f32, 0.0f32);
-    for a in 0..3 {
-        let [mx, my, _] = vel.face_dims(a);
-        let (sign, mirror): (f32, Box<dyn Fn(usize) -> usize + Sync>) = if a == 1 {
-            (-1.0, Box::new(move |j| (my + ny - j) % my))
+    let [mx, my, _] = vel.face_dims(a);
+    let slab = &vel.slice(a)[k * mx * my..][..mx * my];
+    let sign = if a == 1 { -1.0 } else { 1.0 };
+    let mirror = |j: usize| {
+        if a == 1 {
+            (my + ny - j) % my
         } else {
-            (1.0, Box::new(move |j| my - 1 - j))
-        };
-        let (d, s) = vel
-            .slice(a)
-            .par_chunks(mx * my)
-            .map(|slab| {
-                let (mut d, mut s) = (0.0f32, 0.0f32);
-                for j in 0..my {
-                    let (x, y) = (&slab[j * mx..][..mx], &slab[mirror(j) * mx..][..mx]);
-                    let [rd, rs] = pair_maxima(x, y, |x, y| [(x - sign * y).abs(), x.abs()]);
-                    (d, s) = (larger(d, rd), larger(s, rs));
-                }
-                (d, s)
-            })
-            .reduce(|| (0.0, 0.0), |p, q| (p.0.max(q.0), p.1.max(q.1)));
-        diff = diff.max(d);
-        scale = scale.max(s);
-    }
-    VelocityMirror {
-        error: if scale == 0.0 { 0.0 } else { diff / scale },
-        max_norm: scale,
-    }
+            my - 1 - j
+        }
+    };
+    (0..my).fold([0.0; 2], |acc, j| {
+        let (x, y) = (&slab[j * mx..][..mx], &slab[mirror(j) * mx..][..mx]);
+        larger2(
+            acc,
+            pair_maxima(x, y, |x, y| [(x - sign * y).abs(), x.abs()]),
+        )
+    })
+}
+
+/// [`larger`] of each of two pairs.
+fn larger2(a: [f32; 2], b: [f32; 2]) -> [f32; 2] {
+    [larger(a[0], b[0]), larger(a[1], b[1])]
 }
 
 #[cfg(test)]
@@ -232,7 +255,7 @@ mod tests {
         let d = Domain::cube(8, 8.0).unwrap();
         let kind = BoxKind::Periodic;
         let shear = FaceGrid::from_field(d, kind, &*ops::constant_vector(Vec3::X));
-        assert_eq!(divergence_stats(&shear).max, 0.0);
+        assert_eq!(velocity_stats(&shear).divergence.max, 0.0);
         // u = sin(kx) x̂ with k = 2π/8, Δx = 1, sampled on the x-faces
         // x = i: the compact difference at the centre x = i + ½ is
         // 2 sin(k/2) cos(k(i + ½)), largest where |cos| = cos(π/8).
@@ -244,7 +267,15 @@ mod tests {
         }
         let w = FaceGrid::from_field(d, kind, &Wave);
         let expect = 2.0 * (std::f32::consts::PI / 8.0).sin() * (std::f32::consts::PI / 8.0).cos();
-        assert!((divergence_stats(&w).max - expect).abs() < 1e-5);
+        let stats = velocity_stats(&w);
+        assert!((stats.divergence.max - expect).abs() < 1e-5);
+        // The slab-by-slab pass agrees with the whole-grid operator.
+        let mut div = ScalarGrid::zeros(d);
+        w.divergence(&mut div);
+        let whole = rms_max(div.as_slice());
+        assert_eq!(stats.divergence.max, whole.max);
+        assert!((stats.divergence.rms - whole.rms).abs() <= 1e-6 * whole.rms);
+        assert_eq!(stats.mirror.max_norm, w.max_norm());
     }
 
     #[test]
@@ -273,10 +304,10 @@ mod tests {
         }
         let kind = BoxKind::Periodic;
         let sym = FaceGrid::from_field(d, kind, &Odd);
-        let m = velocity_mirror(&sym);
+        let m = velocity_stats(&sym).mirror;
         assert!(m.error < 1e-6);
         assert_eq!(m.max_norm, sym.max_norm());
         let up = FaceGrid::from_field(d, kind, &*ops::constant_vector(Vec3::Y));
-        assert_eq!(velocity_mirror(&up).error, 2.0);
+        assert_eq!(velocity_stats(&up).mirror.error, 2.0);
     }
 }
