@@ -87,7 +87,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "perf",
     reproduces: "issue 16 performance",
     title: "hot/cold step time 32³…256³: cells/s, fitted exponent, 1 vs 2 threads, stages, FFT floor (--peers PYTHON: Taichi + pyFFTW)",
-    cost: "~3 min",
+    cost: "~1 min",
     run,
 };
 
