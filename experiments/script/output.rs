@@ -35,12 +35,13 @@ use serde::Serialize;
 use smokelab::density::probe::{DensityMeasures, DensityProbe};
 use smokelab::domain::Domain;
 use smokelab::field::ops;
-use smokelab::grid::{BoxKind, ScalarGrid};
+use smokelab::grid::ScalarGrid;
 use smokelab::io;
 use smokelab::metrics::{self, SpectralShare};
 use smokelab::simulation::{Gas, Simulation, StepParams};
 
 use super::types::{Fallible, Region, ScalarCache, ScalarF, VectorCache};
+use crate::run::{fine_measures, StepMeasures};
 use crate::table::Log;
 
 /// The steps whose fine density measures `record(frame, dt, velocity,
@@ -291,15 +292,17 @@ impl Recorder {
         let sim = self.shell.as_ref().expect("loaded above");
         let domain = *sim.domain();
         let probes = self.probes.get_or_insert_with(|| Probes::new(domain));
-        let v = &sim.velocity;
-        let stats = metrics::velocity_stats(v);
-        let (mirror, div) = (stats.mirror, stats.divergence);
-        let max_u = mirror.max_norm;
-        let interp = metrics::interpolant_divergence(v, &domain, &probes.points);
-        let ke_top_octave = if fine && v.kind() == BoxKind::Periodic {
-            metrics::top_octave_share(&mut probes.spectrum, v)
+        let StepMeasures {
+            velocity,
+            div_interp,
+            mirror,
+        } = StepMeasures::take(sim, &probes.points);
+        let (div, max_u) = (velocity.divergence, velocity.mirror.max_norm);
+        let (measures, ke_top_octave) = if fine {
+            let (m, ke) = fine_measures(sim, &mut probes.density, &mut probes.spectrum);
+            (Some(m), ke)
         } else {
-            f64::NAN
+            (None, f64::NAN)
         };
         let mut row = vec![
             Cell::Int(step),
@@ -308,12 +311,12 @@ impl Recorder {
             Cell::F32(max_u * dt as f32 / domain.cell),
             Cell::F32(div.rms),
             Cell::F32(div.max),
-            Cell::F32(interp.rms),
-            Cell::F32(interp.max),
+            Cell::F32(div_interp.rms),
+            Cell::F32(div_interp.max),
             Cell::F64(ke_top_octave),
         ];
-        for gas in &sim.gases {
-            let m = fine.then(|| probes.density.measure(&gas.model));
+        for n in 0..sim.gases.len() {
+            let m = measures.as_ref().map(|m| m[n]);
             let value = |f: fn(&DensityMeasures) -> f64| Cell::F64(m.as_ref().map_or(f64::NAN, f));
             row.extend([
                 value(|m| m.mass),
@@ -322,10 +325,8 @@ impl Recorder {
                 value(|m| m.subgrid_fraction),
             ]);
         }
-        if let [a, b] = &sim.gases[..] {
-            row.push(Cell::F32(metrics::mirror_error(a.density(), b.density())));
-        }
-        row.push(Cell::F32(mirror.error));
+        row.extend(mirror.map(Cell::F32));
+        row.push(Cell::F32(velocity.mirror.error));
         row.extend(sim.gases.iter().map(|g| Cell::F64(g.density().total())));
         row.push(Cell::F64(elapsed));
         if self.log.is_none() {
