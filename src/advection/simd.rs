@@ -115,40 +115,53 @@ unsafe fn trilinear8(data: &[f32], d: [usize; 3], g: [__m256; 3]) -> (__m256, __
     // gathers) and splits them into the x0 and x1 values.
     for (cy, cz) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
         let at = _mm256_add_epi32(r, _mm256_set1_epi32(cy as i32 * nx + cz as i32 * nxy));
-        let pairs = data.as_ptr().cast::<i64>();
         // SAFETY: every lane has x ≤ mx − 2, y ≤ my − 2, z ≤ mz − 2 (lanes
         // outside read x = y = z = 0, and every m ≥ 2), so the pair at its
         // index ends at most at ((z + 1)·my + y + 1)·mx + x + 1
         // < mx·my·mz ≤ data.len(); indices are below 2³⁰ (no i32 overflow,
-        // [`lattices`]); gathers need no alignment.
-        let (low, high) = unsafe {
-            (
-                _mm256_castsi256_ps(_mm256_i32gather_epi64::<4>(
-                    pairs,
-                    _mm256_castsi256_si128(at),
-                )),
-                _mm256_castsi256_ps(_mm256_i32gather_epi64::<4>(
-                    pairs,
-                    _mm256_extracti128_si256::<1>(at),
-                )),
-            )
-        };
-        // Lanes 0–3 in `low`, 4–7 in `high`, as (x0, x1) pairs: the even
-        // elements are x0, the odd x1; the shuffle leaves them in lane order
-        // 0 1 4 5 2 3 6 7, the permute restores 0…7.
-        let split = |v: __m256| {
-            _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(v)))
-        };
-        let v = [
-            split(_mm256_shuffle_ps::<0b10_00_10_00>(low, high)),
-            split(_mm256_shuffle_ps::<0b11_01_11_01>(low, high)),
-        ];
+        // [`lattices`]).
+        let v = unsafe { x_pairs8(data, at) };
         for (cx, v) in v.into_iter().enumerate() {
             let weight = _mm256_mul_ps(_mm256_mul_ps(wx[cx], wy[cy]), wz[cz]);
             acc = _mm256_add_ps(acc, _mm256_mul_ps(weight, v));
         }
     }
     (acc, ok)
+}
+
+/// The values at `at` and `at + 1` of `data` in eight lanes (the x0 and x1
+/// corners of a trilinear stencil's row): one 64-bit gather per four lanes,
+/// half the gathered elements of eight 32-bit gathers, split into the two
+/// values in lane order.
+///
+/// # Safety
+/// Every lane's `at + 1 < data.len()`, `at ≥ 0`; the CPU has AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+unsafe fn x_pairs8(data: &[f32], at: __m256i) -> [__m256; 2] {
+    let pairs = data.as_ptr().cast::<i64>();
+    // SAFETY: as this function's; gathers need no alignment.
+    let (low, high) = unsafe {
+        (
+            _mm256_castsi256_ps(_mm256_i32gather_epi64::<4>(
+                pairs,
+                _mm256_castsi256_si128(at),
+            )),
+            _mm256_castsi256_ps(_mm256_i32gather_epi64::<4>(
+                pairs,
+                _mm256_extracti128_si256::<1>(at),
+            )),
+        )
+    };
+    // Lanes 0–3 in `low`, 4–7 in `high`, as (x0, x1) pairs: the even
+    // elements are x0, the odd x1; the shuffle leaves them in lane order
+    // 0 1 4 5 2 3 6 7, the permute restores 0…7.
+    let split =
+        |v: __m256| _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(v)));
+    [
+        split(_mm256_shuffle_ps::<0b10_00_10_00>(low, high)),
+        split(_mm256_shuffle_ps::<0b11_01_11_01>(low, high)),
+    ]
 }
 
 /// Eight contiguous values of `data` from `at`.
@@ -460,23 +473,7 @@ unsafe fn stencil8(data: &[f32], d: [usize; 3], wrap: Wrap, g: [__m256; 3]) -> (
         // need no alignment.
         let v = unsafe {
             if adjacent {
-                let pairs = data.as_ptr().cast::<i64>();
-                let low = _mm256_castsi256_ps(_mm256_i32gather_epi64::<4>(
-                    pairs,
-                    _mm256_castsi256_si128(at),
-                ));
-                let high = _mm256_castsi256_ps(_mm256_i32gather_epi64::<4>(
-                    pairs,
-                    _mm256_extracti128_si256::<1>(at),
-                ));
-                // As in `trilinear8`: split the (x0, x1) pairs, restore lane order.
-                let split = |v: __m256| {
-                    _mm256_castpd_ps(_mm256_permute4x64_pd::<0b11_01_10_00>(_mm256_castps_pd(v)))
-                };
-                [
-                    split(_mm256_shuffle_ps::<0b10_00_10_00>(low, high)),
-                    split(_mm256_shuffle_ps::<0b11_01_11_01>(low, high)),
-                ]
+                x_pairs8(data, at)
             } else {
                 let at1 = _mm256_add_epi32(row, x1);
                 [
