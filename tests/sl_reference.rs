@@ -6,8 +6,14 @@
 //! query through the general wrapping or clamping [`Stencil`], every face
 //! velocity through the wrapping four-face average. Velocities large enough
 //! that many departure points cross the periodic seam or the walls exercise
-//! both paths. The face sweep (its AVX2 kernel included) must give the
+//! both paths. The face sweep (its vector kernels included) must give the
 //! reference's bits; the departure points agree to 1e-6 of the largest speed.
+//!
+//! Each test runs on a box whose rows are shorter than sixteen (the AVX2
+//! kernels, eight lanes) and one whose rows are longer (on a CPU with
+//! AVX-512F, the sixteen-lane kernels: whole rows, the velocities at faces
+//! and cells away from the box's faces by vector loads, stencils near them
+//! wrapped or clamped in the lanes).
 
 use glam::Vec3;
 use smokelab::advection::{
@@ -92,10 +98,17 @@ const CASES: [(BoxKind, f32); 4] = [
     (BoxKind::Closed, 4.0),
 ];
 
+/// Every case on boxes of each of `dims` (unit cells).
+fn boxes(dims: [[usize; 3]; 2]) -> impl Iterator<Item = (Domain, (BoxKind, f32))> {
+    dims.into_iter().flat_map(|n| {
+        let d = Domain::new(Vec3::ZERO, 1.0, n).unwrap();
+        CASES.into_iter().map(move |case| (d, case))
+    })
+}
+
 #[test]
 fn face_advection_matches_the_general_stencil() {
-    let d = Domain::new(Vec3::ZERO, 1.0, [21, 9, 8]).unwrap();
-    for (kind, speed) in CASES {
+    for (d, (kind, speed)) in boxes([[13, 9, 8], [37, 9, 8]]) {
         let vel = rough(d, kind, speed);
         let src = rough(d, kind, 1.0);
         for bt in Backtrace::ALL {
@@ -136,8 +149,7 @@ fn face_advection_matches_the_general_stencil() {
 
 #[test]
 fn cell_departures_match_the_general_stencil() {
-    let d = Domain::new(Vec3::ZERO, 1.0, [10, 7, 9]).unwrap();
-    for (kind, speed) in CASES {
+    for (d, (kind, speed)) in boxes([[10, 7, 9], [37, 7, 9]]) {
         let vel = rough(d, kind, speed);
         let sampler = vel.sampler();
         for bt in Backtrace::ALL {
@@ -161,13 +173,13 @@ fn cell_departures_match_the_general_stencil() {
 /// sampled eight cells at a time by the AVX2 kernels where they apply)
 /// against one cell at a time through the scalar public API
 /// (`departure_point`, then a `Stencil`): the same bits for every density,
-/// box kind, speed and backtrace. Rows of 37 cells exercise full groups of
-/// eight, the overlapping last group and the scalar edges; the fast speed
-/// sends many departure points across the seam or into the walls.
+/// box kind, speed and backtrace. Rows of 12 and 37 cells exercise full
+/// groups of eight or sixteen, the overlapping last group and the box's
+/// edges; the fast speed sends many departure points across the seam or
+/// into the walls.
 #[test]
 fn fused_densities_match_the_scalar_sweep_to_the_bit() {
-    let d = Domain::new(Vec3::ZERO, 1.0, [37, 11, 10]).unwrap();
-    for (kind, speed) in CASES {
+    for (d, (kind, speed)) in boxes([[12, 11, 10], [37, 11, 10]]) {
         let vel = rough(d, kind, speed);
         let densities: Vec<ScalarGrid> = (0..2)
             .map(|m| {

@@ -14,6 +14,8 @@
 mod closed_faces;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod simd;
+#[cfg(target_arch = "x86_64")]
+mod simd512;
 mod lattice;
 pub mod quick;
 pub mod semi_lagrangian;

@@ -27,9 +27,9 @@ use std::ops::Range;
 use glam::Vec3;
 use rayon::prelude::*;
 
-#[cfg(target_arch = "x86_64")]
-use super::simd;
 use super::Backtrace;
+#[cfg(target_arch = "x86_64")]
+use super::{simd, simd512};
 use crate::domain::Domain;
 use crate::grid::face::FaceSampler;
 use crate::grid::{FaceGrid, ScalarGrid, Stencil, Wrap};
@@ -109,7 +109,7 @@ pub fn departure_point(vel: &FaceGrid, g: Vec3, dt_cells: f32, backtrace: Backtr
 
 /// [`departure_point`] of every point of `g` (grid coordinates), in place,
 /// unwrapped: sixteen at a time through the AVX-512 kernel
-/// ([`simd::points16`]) and eight through the AVX2 one ([`simd::points8`];
+/// ([`simd512::points16`]) and eight through the AVX2 one ([`simd::points8`];
 /// stencils wrapped or clamped as the scalar path's) when the CPU has them;
 /// RK3, the remainder and the rare lanes the kernel leaves (points more than
 /// a period outside) one by one. Both do the same floating-point operations
@@ -152,13 +152,14 @@ fn trace_points(vel: &FaceGrid, g: &mut [Vec3], dt_cells: f32, backtrace: Backtr
             }
         };
         // Sixteen at a time where the CPU has AVX-512, then eight.
-        let g = if simd::has_avx512() {
+        let g = if simd512::has_avx512() {
             let mut groups = g.chunks_exact_mut(16);
             for group in &mut groups {
                 let points: &mut [Vec3; 16] = group.try_into().expect("groups of sixteen");
                 // SAFETY: `has_avx512`, and `lattices` checked the lattice sizes.
-                let left =
-                    unsafe { simd::points16(lat, stencil, points, dt_cells, backtrace, into_box) };
+                let left = unsafe {
+                    simd512::points16(lat, stencil, points, dt_cells, backtrace, into_box)
+                };
                 redo(points, left);
             }
             groups.into_remainder()
@@ -215,20 +216,20 @@ pub fn interpolate_scalar(src: &ScalarGrid, dep: &Departures, dst: &mut ScalarGr
     );
     let (data, wrap) = (src.as_slice(), src.wrap());
     #[cfg(target_arch = "x86_64")]
-    let avx2 = simd::fits(d.dims);
+    let lanes = Lanes::widest(simd::fits(d.dims));
     #[cfg(not(target_arch = "x86_64"))]
-    let avx2 = false;
+    let lanes = Lanes::One;
     let nx = d.dims[0];
     dst.as_slice_mut()
         .par_chunks_mut(nx)
         .zip(dep.points.par_chunks(nx))
         .for_each_init(
             || [vec![0.0f32; nx], vec![0.0f32; nx], vec![0.0f32; nx]],
-            |lanes, (out, row)| {
+            |points, (out, row)| {
                 for (i, &g) in row.iter().enumerate() {
-                    set_point(lanes, i, g);
+                    set_point(points, i, g);
                 }
-                sample_row(avx2, data, (d.dims, wrap), lanes, out);
+                sample_row(lanes, data, (d.dims, wrap), points, out);
             },
         );
 }
@@ -269,10 +270,28 @@ pub fn advect_faces(
     let dt_cells = dt / vel.domain().cell;
     let dims: [[usize; 3]; 3] = std::array::from_fn(|a| dst.face_dims(a));
     let trace = (sampler, dt_cells, backtrace);
-    let cells = vel.domain().dims;
-    face_sweep::<0>(trace, src.slice(0), dst.slice_mut(0), dims[0], cells);
-    face_sweep::<1>(trace, src.slice(1), dst.slice_mut(1), dims[1], cells);
-    face_sweep::<2>(trace, src.slice(2), dst.slice_mut(2), dims[2], cells);
+    let (cells, wrap) = (vel.domain().dims, vel.kind().wrap());
+    face_sweep::<0>(
+        trace,
+        src.slice(0),
+        dst.slice_mut(0),
+        dims[0],
+        (cells, wrap),
+    );
+    face_sweep::<1>(
+        trace,
+        src.slice(1),
+        dst.slice_mut(1),
+        dims[1],
+        (cells, wrap),
+    );
+    face_sweep::<2>(
+        trace,
+        src.slice(2),
+        dst.slice_mut(2),
+        dims[2],
+        (cells, wrap),
+    );
     dst.zero_walls();
 }
 
@@ -285,7 +304,7 @@ fn face_sweep<const A: usize>(
     data: &[f32],
     out: &mut [f32],
     dims: [usize; 3],
-    cells: [usize; 3],
+    (cells, wrap): ([usize; 3], Wrap),
 ) {
     assert_eq!(
         data.len(),
@@ -294,6 +313,10 @@ fn face_sweep<const A: usize>(
     );
     #[cfg(target_arch = "x86_64")]
     let simd = simd::lattices(vel);
+    #[cfg(target_arch = "x86_64")]
+    let sixteen = simd.filter(|_| cells[0] >= 18 && simd512::has_avx512());
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = wrap;
     let scalar = |[i, j, k]: [usize; 3]| {
         let mut c = Vec3::new(i as f32, j as f32, k as f32);
         c[A] -= 0.5;
@@ -305,6 +328,40 @@ fn face_sweep<const A: usize>(
         .enumerate()
         .for_each(|(k, slab)| {
             for (j, row) in slab.chunks_exact_mut(dims[0]).enumerate() {
+                // Groups of sixteen (the last overlapping its predecessor):
+                // away from the box's faces faces 1 … n_x − 2, their
+                // velocities by vector loads, and the row's ends one by one;
+                // near them whole rows, the face velocities one by one. The
+                // lanes the kernel leaves, one by one.
+                #[cfg(target_arch = "x86_64")]
+                if let Some(lat) = sixteen {
+                    let no_wrap = (1..cells[1] - 1).contains(&j) && (1..cells[2] - 1).contains(&k);
+                    let covered = if no_wrap {
+                        1..cells[0] - 1
+                    } else {
+                        0..row.len()
+                    };
+                    for i in group_starts(covered.clone(), 16) {
+                        let f = [i, j, k];
+                        let u0 = (!no_wrap).then(|| vectors16(|n| vel.at_face(A, [i + n, j, k])));
+                        // SAFETY: AVX-512F (`sixteen`), lattice sizes checked
+                        // by simd::lattices, `data` has A's lattice length
+                        // (asserted above); where `u0` is `None` no face
+                        // wraps (1 ≤ i, i + 16 ≤ n_x − 1, j and k inside).
+                        let left = unsafe {
+                            let dst = (data, &mut row[i..]);
+                            let trace = (dt_cells, backtrace);
+                            simd512::faces16::<A>(lat, wrap, dst, f, u0.as_ref(), trace)
+                        };
+                        for n in lanes_in(left) {
+                            row[i + n] = scalar([i + n, j, k]);
+                        }
+                    }
+                    for i in (0..covered.start).chain(covered.end..row.len()) {
+                        row[i] = scalar([i, j, k]);
+                    }
+                    continue;
+                }
                 // Faces 1 … n_x − 2 in groups of eight (the kernel's
                 // precondition: away from the box's edges), where their
                 // stencils stay inside; the rest one by one.
@@ -313,19 +370,24 @@ fn face_sweep<const A: usize>(
                     .filter(|_| (1..cells[1] - 1).contains(&j) && (1..cells[2] - 1).contains(&k))
                 {
                     let covered = eight_wide(1, cells[0] - 1);
-                    for i in group_starts(covered.clone()) {
+                    for i in group_starts(covered.clone(), 8) {
                         // SAFETY: AVX2 and lattice sizes checked by
                         // simd::lattices; `data` has A's lattice length
                         // (asserted above); 1 ≤ i, i + 8 ≤ n_x − 1 and j, k
                         // inside as faces8 requires.
-                        let got =
-                            unsafe { simd::faces8::<A>(lat, data, [i, j, k], dt_cells, backtrace) };
-                        match got {
-                            Some(v) => row[i..i + 8].copy_from_slice(&v),
-                            None => {
-                                for (n, o) in row[i..i + 8].iter_mut().enumerate() {
-                                    *o = scalar([i + n, j, k]);
-                                }
+                        let done = unsafe {
+                            simd::faces8::<A>(
+                                lat,
+                                data,
+                                [i, j, k],
+                                dt_cells,
+                                backtrace,
+                                &mut row[i..],
+                            )
+                        };
+                        if !done {
+                            for (n, o) in row[i..i + 8].iter_mut().enumerate() {
+                                *o = scalar([i + n, j, k]);
                             }
                         }
                     }
@@ -398,7 +460,7 @@ pub fn advect_fused(
                 trace.row(j, k, points);
                 for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
                     let out = &mut out[j * nx..(j + 1) * nx];
-                    sample_row(trace.avx2(), data, (d.dims, wrap), points, out);
+                    sample_row(trace.lanes(), data, (d.dims, wrap), points, out);
                 }
             }
         },
@@ -407,15 +469,18 @@ pub fn advect_fused(
 
 /// The backtrace of the cell centres of one row at a time (eqs 6.4–6.5),
 /// shared by [`advect_fused`], [`Departures::trace`] and
-/// [`interpolate_scalar`]: eight cells at once through the AVX2 kernels
-/// ([`simd::cells8`], [`simd::sample8`]) where they apply, the scalar
-/// [`departure`] and [`Stencil`] elsewhere — the same operations, so the
-/// same bits.
+/// [`interpolate_scalar`]: sixteen cells at once through the AVX-512
+/// kernels ([`simd512::cells16`], [`simd512::sample16`]) where the CPU has
+/// them, else eight through the AVX2 ones ([`simd::cells8`],
+/// [`simd::sample8`]) where they apply; the scalar [`departure`] and
+/// [`Stencil`] elsewhere — the same operations, so the same bits.
 #[derive(Clone, Copy)]
 struct RowTrace<'a> {
     sampler: FaceSampler<'a>,
     #[cfg(target_arch = "x86_64")]
     simd: Option<simd::Lattices<'a>>,
+    lanes: Lanes,
+    wrap: Wrap,
     cells: [usize; 3],
     dt_cells: f32,
     backtrace: Backtrace,
@@ -424,10 +489,16 @@ struct RowTrace<'a> {
 impl<'a> RowTrace<'a> {
     fn new(vel: &'a FaceGrid, dt: f32, backtrace: Backtrace) -> Self {
         let sampler = vel.sampler();
+        #[cfg(target_arch = "x86_64")]
+        let simd = simd::lattices(sampler);
+        #[cfg(not(target_arch = "x86_64"))]
+        let simd: Option<()> = None;
         Self {
             sampler,
             #[cfg(target_arch = "x86_64")]
-            simd: simd::lattices(sampler),
+            simd,
+            lanes: Lanes::widest(simd.is_some()),
+            wrap: vel.kind().wrap(),
             cells: vel.domain().dims,
             dt_cells: dt / vel.domain().cell,
             backtrace,
@@ -443,6 +514,41 @@ impl<'a> RowTrace<'a> {
             let u0 = self.sampler.at_cell([i, j, k]);
             departure(self.sampler, g, u0, self.dt_cells, self.backtrace)
         };
+        #[cfg(target_arch = "x86_64")]
+        if let Some(lat) = self
+            .simd
+            .filter(|_| self.lanes == Lanes::Sixteen && nx >= 18)
+        {
+            // Groups of sixteen (the last overlapping its predecessor):
+            // where no face wraps the cells whose upper faces are inside
+            // the lattices, their velocities by vector loads, and the rest
+            // of the row one by one; else whole rows, the cell velocities
+            // one by one. The lanes the kernel leaves, one by one.
+            let no_wrap = j + 1 < lat.dims[1][1] && k + 1 < lat.dims[2][2];
+            let covered = if no_wrap {
+                0..(lat.dims[0][0] - 1).min(nx)
+            } else {
+                0..nx
+            };
+            for i in group_starts(covered.clone(), 16) {
+                let f = [i, j, k];
+                let u0 = (!no_wrap).then(|| vectors16(|n| self.sampler.at_cell([i + n, j, k])));
+                let [px, py, pz] = &mut *points;
+                let out = [&mut px[i..], &mut py[i..], &mut pz[i..]];
+                let trace = (self.dt_cells, self.backtrace);
+                // SAFETY: AVX-512F (`Lanes::widest`), lattice sizes checked
+                // by simd::lattices; where `u0` is `None` no face wraps
+                // (i + 16 < m_x of u, j and k as checked).
+                let left = unsafe { simd512::cells16(lat, self.wrap, f, u0.as_ref(), trace, out) };
+                for n in lanes_in(left) {
+                    set_point(points, i + n, scalar(i + n));
+                }
+            }
+            for i in covered.end..nx {
+                set_point(points, i, scalar(i));
+            }
+            return;
+        }
         // Cells 1 … in groups of eight while their upper faces are inside
         // the lattices (`i + 8 < m_x` of u, `j + 1 < m_y` of v, `k + 1 <
         // m_z` of w), where the RK2 midpoints' stencils stay inside; the
@@ -454,7 +560,7 @@ impl<'a> RowTrace<'a> {
             .filter(|l| j + 1 < l.dims[1][1] && k + 1 < l.dims[2][2])
         {
             covered = eight_wide(1, (lat.dims[0][0] - 1).min(nx));
-            for i in group_starts(covered.clone()) {
+            for i in group_starts(covered.clone(), 8) {
                 let [px, py, pz] = &mut *points;
                 let lanes = [&mut px[i..], &mut py[i..], &mut pz[i..]];
                 // SAFETY: AVX2 and lattice sizes checked by simd::lattices;
@@ -474,37 +580,46 @@ impl<'a> RowTrace<'a> {
         }
     }
 
-    /// Whether the AVX2 kernels apply to this velocity's grids.
-    fn avx2(&self) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        return self.simd.is_some();
-        #[cfg(not(target_arch = "x86_64"))]
-        false
+    /// The widest kernels that apply to this velocity's grids.
+    fn lanes(&self) -> Lanes {
+        self.lanes
     }
 }
 
 /// `data` (a cell-centred grid of `cells`, `wrap`ped) interpolated at a
 /// row's departure points `points` ([`RowTrace::row`]) into `out` (one
-/// row), eight at a time through [`simd::sample8`] if `avx2` (the CPU has
-/// it and the grid fits, [`simd::fits`]).
+/// row): sixteen at a time through [`simd512::sample16`] or eight through
+/// [`simd::sample8`] as `lanes` allows ([`Lanes::widest`]), the rest one
+/// by one.
 fn sample_row(
-    avx2: bool,
+    lanes: Lanes,
     data: &[f32],
     (cells, wrap): ([usize; 3], Wrap),
     points: &[Vec<f32>; 3],
     out: &mut [f32],
 ) {
     let scalar = |i| Stencil::new(point(points, i), cells, wrap).apply(data);
-    // Cells 1 … n_x − 2 in groups of eight where their stencils lie inside
+    let [px, py, pz] = points;
+    // Cells 1 … n_x − 2 in groups of sixteen or eight (the last
+    // overlapping its predecessor), where the stencils mostly lie inside
     // the grid (the edge cells' rarely do); the rest one by one.
     let mut covered = 0..0;
     #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        covered = eight_wide(1, cells[0] - 1);
-        for i in group_starts(covered.clone()) {
-            let [px, py, pz] = points;
+    if lanes == Lanes::Sixteen && cells[0] >= 18 {
+        covered = 1..cells[0] - 1;
+        for i in group_starts(covered.clone(), 16) {
             let g = [&px[i..], &py[i..], &pz[i..]];
-            // SAFETY: the caller checked AVX2 and that the grid fits.
+            // SAFETY: AVX-512F and a grid that fits (`Lanes::widest`).
+            let left = unsafe { simd512::sample16(data, (cells, wrap), g, &mut out[i..]) };
+            for n in lanes_in(left) {
+                out[i + n] = scalar(i + n);
+            }
+        }
+    } else if lanes != Lanes::One {
+        covered = eight_wide(1, cells[0] - 1);
+        for i in group_starts(covered.clone(), 8) {
+            let g = [&px[i..], &py[i..], &pz[i..]];
+            // SAFETY: AVX2 and a grid that fits (`Lanes::widest`).
             if !unsafe { simd::sample8(data, cells, g, &mut out[i..]) } {
                 for (n, o) in out[i..i + 8].iter_mut().enumerate() {
                     *o = scalar(i + n);
@@ -512,11 +627,51 @@ fn sample_row(
             }
         }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = avx2;
     for i in (0..covered.start).chain(covered.end..out.len()) {
         out[i] = scalar(i);
     }
+}
+
+/// The widest vector kernels a sweep runs: sixteen lanes (AVX-512F), eight
+/// (AVX2) or one (the scalar path).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Lanes {
+    One,
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    Eight,
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    Sixteen,
+}
+
+impl Lanes {
+    /// The widest this CPU offers, for grids that `fit` the kernels
+    /// ([`simd::fits`], [`simd::lattices`]).
+    fn widest(fit: bool) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if fit {
+            return if simd512::has_avx512() {
+                Lanes::Sixteen
+            } else {
+                Lanes::Eight
+            };
+        }
+        let _ = fit;
+        Lanes::One
+    }
+}
+
+/// The lanes set in a kernel's mask of lanes left to the scalar path.
+#[cfg(target_arch = "x86_64")]
+fn lanes_in(mask: u32) -> impl Iterator<Item = usize> {
+    (0..32).filter(move |l| mask & (1 << l) != 0)
+}
+
+/// Sixteen velocities `f(0) … f(15)` as `[x, y, z]` lanes, for the
+/// sixteen-lane kernels.
+#[cfg(target_arch = "x86_64")]
+fn vectors16(f: impl Fn(usize) -> Vec3) -> [[f32; 16]; 3] {
+    let v: [Vec3; 16] = std::array::from_fn(f);
+    std::array::from_fn(|a| std::array::from_fn(|l| v[l][a]))
 }
 
 /// `first..end` if it holds a group of eight, else `0..0`: the points of a
@@ -530,16 +685,16 @@ fn eight_wide(first: usize, end: usize) -> Range<usize> {
     }
 }
 
-/// Starts of the eight-wide groups covering `range` ([`eight_wide`]): every
-/// eighth point from its start, the last group moved back to end at
-/// `range.end`, overlapping its predecessor (a point's value does not
-/// depend on its group, so the overlap writes the same bits twice).
+/// Starts of the groups of `width` covering `range`: every `width`-th point from its start, the last group
+/// moved back to end at `range.end`, overlapping its predecessor (a
+/// point's value does not depend on its group, so the overlap writes the
+/// same bits twice).
 #[cfg(target_arch = "x86_64")]
-fn group_starts(range: Range<usize>) -> impl Iterator<Item = usize> {
-    let last = range.end.saturating_sub(8);
+fn group_starts(range: Range<usize>, width: usize) -> impl Iterator<Item = usize> {
+    let last = range.end.saturating_sub(width);
     (range.start..last)
-        .step_by(8)
-        .chain((range.len() >= 8).then_some(last))
+        .step_by(width)
+        .chain((range.len() >= width).then_some(last))
 }
 
 /// Point `i` of a row's departure points held as `[x, y, z]` lanes.

@@ -232,8 +232,8 @@ unsafe fn trace8(
 
 /// Faces `(i, j, k) … (i + 7, j, k)` of component `A`: `data` (laid out
 /// like component `A`'s lattice) at each face's departure point through
-/// `vel` over `dt_cells = Δt/Δx`, or `None` (nothing written) if a stencil
-/// would wrap or clamp. Euler and RK2 only.
+/// `vel` over `dt_cells = Δt/Δx`, into `out`; `false` (nothing written) if
+/// a stencil would wrap or clamp. Euler and RK2 only.
 ///
 /// The caller keeps `1 ≤ i`, `i + 8 ≤ n_x − 1`, `1 ≤ j ≤ n_y − 2` and
 /// `1 ≤ k ≤ n_z − 2` with `n` the cell counts, so the face velocities
@@ -242,6 +242,9 @@ unsafe fn trace8(
 /// # Safety
 /// The CPU has AVX2 ([`lattices`]) and `vel.dims` passes [`lattices`]; `data`
 /// has component `A`'s lattice length.
+///
+/// # Panics
+/// If `out` is shorter than eight.
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn faces8<const A: usize>(
     vel: Lattices,
@@ -249,7 +252,8 @@ pub(super) unsafe fn faces8<const A: usize>(
     f: [usize; 3],
     dt_cells: f32,
     backtrace: Backtrace,
-) -> Option<[f32; 8]> {
+    out: &mut [f32],
+) -> bool {
     let lane = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
     let mut c = [
         _mm256_add_ps(_mm256_set1_ps(f[0] as f32), lane),
@@ -275,18 +279,16 @@ pub(super) unsafe fn faces8<const A: usize>(
     // SAFETY: as this function's.
     let (g, traced) = unsafe { trace8(vel, c, u0, dt_cells, backtrace) };
     if !all(traced) {
-        return None;
+        return false;
     }
     let mut p = g;
     p[A] = _mm256_add_ps(p[A], _mm256_set1_ps(0.5));
     // SAFETY: `data` has component A's lattice length (caller).
     let (v, inside) = unsafe { trilinear8(data, vel.dims[A], p) };
-    if !all(inside) {
-        return None;
+    if all(inside) {
+        store8(out, v);
     }
-    let mut out = [0.0; 8];
-    store8(&mut out, v);
-    Some(out)
+    all(inside)
 }
 
 /// The departure points of cell centres `(i, j, k) … (i + 7, j, k)` traced
@@ -592,245 +594,9 @@ pub(crate) unsafe fn points8(
     bad
 }
 
-/// The sixteen-lane (AVX-512F) kernel for arbitrary points, [`points16`].
-/// Its intrinsics are stable since Rust 1.89, the workspace's `rust-version`.
-mod avx512 {
-    use super::*;
-
-    /// [`axis8`] in sixteen lanes (AVX-512), the lanes left to the scalar path
-    /// as a mask.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    fn axis16(g: __m512, n: usize, wrap: Wrap) -> (__m512i, __m512i, __m512, __mmask16) {
-        let ni = n as i32;
-        let one = _mm512_set1_epi32(1);
-        let (f, frac, i0, i1, bad) = match wrap {
-            Wrap::Periodic => {
-                let t = _mm512_cvttps_epi32(g);
-                // −1 where the truncation rounded up (negative non-integers).
-                let up = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_cvtepi32_ps(t), g);
-                let f = _mm512_mask_sub_epi32(t, up, t, one);
-                let n16 = _mm512_set1_epi32(ni);
-                let below = _mm512_cmplt_epi32_mask(f, _mm512_setzero_si512());
-                let above = _mm512_cmpgt_epi32_mask(f, _mm512_set1_epi32(ni - 1));
-                let i0 = _mm512_mask_add_epi32(f, below, f, n16);
-                let i0 = _mm512_mask_sub_epi32(i0, above, i0, n16);
-                let i1 = _mm512_add_epi32(i0, one);
-                let i1 = _mm512_mask_mov_epi32(
-                    i1,
-                    _mm512_cmpeq_epi32_mask(i1, n16),
-                    _mm512_setzero_si512(),
-                );
-                let bad = _mm512_cmplt_epi32_mask(f, _mm512_set1_epi32(-ni))
-                    | _mm512_cmpgt_epi32_mask(f, _mm512_set1_epi32(2 * ni - 1));
-                (f, g, i0, i1, bad)
-            }
-            Wrap::Clamped => {
-                // As `axis8`: `max(a, b)` is `a > b ? a : b`.
-                let zero = _mm512_setzero_ps();
-                let c = _mm512_min_ps(_mm512_set1_ps((n - 1) as f32), _mm512_max_ps(zero, g));
-                let f = _mm512_cvttps_epi32(c);
-                let i1 = _mm512_min_epi32(_mm512_add_epi32(f, one), _mm512_set1_epi32(ni - 1));
-                (f, c, f, i1, _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(g, g))
-            }
-        };
-        let frac = _mm512_sub_ps(frac, _mm512_cvtepi32_ps(f));
-        let i0 = _mm512_maskz_mov_epi32(!bad, i0);
-        let i1 = _mm512_mask_mov_epi32(i1, bad, one);
-        (i0, i1, frac, bad)
-    }
-
-    /// [`stencil8`] in sixteen lanes (AVX-512): the same corners, weights and
-    /// sum, the (x0, x1) pairs split by one two-source permute.
-    ///
-    /// # Safety
-    /// As [`stencil8`], with AVX-512F.
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn stencil16(
-        data: &[f32],
-        d: [usize; 3],
-        wrap: Wrap,
-        g: [__m512; 3],
-    ) -> (__m512, __mmask16) {
-        let (x0, x1, tx, bx) = axis16(g[0], d[0], wrap);
-        let (y0, y1, ty, by) = axis16(g[1], d[1], wrap);
-        let (z0, z1, tz, bz) = axis16(g[2], d[2], wrap);
-        let (mx, my) = (
-            _mm512_set1_epi32(d[0] as i32),
-            _mm512_set1_epi32(d[1] as i32),
-        );
-        let (y, z) = (
-            [y0, y1],
-            [_mm512_mullo_epi32(z0, my), _mm512_mullo_epi32(z1, my)],
-        );
-        let one = _mm512_set1_ps(1.0);
-        let wx = [_mm512_sub_ps(one, tx), tx];
-        let wy = [_mm512_sub_ps(one, ty), ty];
-        let wz = [_mm512_sub_ps(one, tz), tz];
-        let adjacent =
-            _mm512_cmpneq_epi32_mask(x1, _mm512_add_epi32(x0, _mm512_set1_epi32(1))) == 0;
-        let even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
-        let odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
-        // Points traced from neighbouring cells often share their lattice row:
-        // then the corners of a row lie in a window of 32 values from `base`
-        // (eight before lane 0's x0), fetched by two loads and picked by two
-        // permutes instead of gathers, where every lane's x0 and x1 fall in it.
-        let base = (_mm_cvtsi128_si32(_mm512_castsi512_si128(x0)) - 8).max(0);
-        let window = _mm512_set1_epi32(32);
-        let (o0, o1) = (
-            _mm512_sub_epi32(x0, _mm512_set1_epi32(base)),
-            _mm512_sub_epi32(x1, _mm512_set1_epi32(base)),
-        );
-        let in_window =
-            (_mm512_cmpge_epu32_mask(o0, window) | _mm512_cmpge_epu32_mask(o1, window)) == 0;
-        let mut acc = _mm512_setzero_ps();
-        for (cy, cz) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-            let row = _mm512_mullo_epi32(_mm512_add_epi32(z[cz], y[cy]), mx);
-            let at = _mm512_add_epi32(row, x0);
-            let r0 = _mm_cvtsi128_si32(_mm512_castsi512_si128(row));
-            let one_row = in_window
-                && _mm512_cmpneq_epi32_mask(row, _mm512_set1_epi32(r0)) == 0
-                && (r0 + base) as usize + 32 <= data.len();
-            // SAFETY: as in `stencil8`; a window's 32 values from `r0 + base ≥ 0`
-            // end inside `data` (checked).
-            let v = unsafe {
-                if one_row {
-                    let p = data.as_ptr().add((r0 + base) as usize);
-                    let (a, b) = (_mm512_loadu_ps(p), _mm512_loadu_ps(p.add(16)));
-                    [
-                        _mm512_permutex2var_ps(a, o0, b),
-                        _mm512_permutex2var_ps(a, o1, b),
-                    ]
-                } else if adjacent {
-                    let pairs = data.as_ptr().cast::<i64>();
-                    let low = _mm512_castsi512_ps(_mm512_i32gather_epi64::<4>(
-                        _mm512_castsi512_si256(at),
-                        pairs,
-                    ));
-                    let high = _mm512_castsi512_ps(_mm512_i32gather_epi64::<4>(
-                        _mm512_extracti64x4_epi64::<1>(at),
-                        pairs,
-                    ));
-                    [
-                        _mm512_permutex2var_ps(low, even, high),
-                        _mm512_permutex2var_ps(low, odd, high),
-                    ]
-                } else {
-                    let at1 = _mm512_add_epi32(row, x1);
-                    [
-                        _mm512_i32gather_ps::<4>(at, data.as_ptr()),
-                        _mm512_i32gather_ps::<4>(at1, data.as_ptr()),
-                    ]
-                }
-            };
-            for (cx, v) in v.into_iter().enumerate() {
-                let weight = _mm512_mul_ps(_mm512_mul_ps(wx[cx], wy[cy]), wz[cz]);
-                acc = _mm512_add_ps(acc, _mm512_mul_ps(weight, v));
-            }
-        }
-        (acc, bx | by | bz)
-    }
-
-    /// [`velocity8_wrapped`] in sixteen lanes (AVX-512).
-    ///
-    /// # Safety
-    /// The CPU has AVX-512F and `vel.dims` passes [`lattices`].
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    unsafe fn velocity16(vel: Lattices, wrap: Wrap, g: [__m512; 3]) -> ([__m512; 3], __mmask16) {
-        let mut u = [_mm512_setzero_ps(); 3];
-        let mut bad = 0;
-        for (b, ub) in u.iter_mut().enumerate() {
-            let mut p = g;
-            p[b] = _mm512_add_ps(p[b], _mm512_set1_ps(0.5));
-            // SAFETY: the lattice of b has vel.data[b]'s length (fits).
-            let (v, lanes) = unsafe { stencil16(vel.data[b], vel.dims[b], wrap, p) };
-            *ub = v;
-            bad |= lanes;
-        }
-        (u, bad)
-    }
-
-    /// [`wrap8`] in sixteen lanes (AVX-512).
-    #[inline]
-    #[target_feature(enable = "avx512f")]
-    fn wrap16(x: __m512, n: usize) -> (__m512, __mmask16) {
-        let (lo, len) = (_mm512_set1_ps(-0.5), _mm512_set1_ps(n as f32));
-        let hi = _mm512_set1_ps(-0.5 + n as f32);
-        let below = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(x, lo);
-        let above = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(x, hi);
-        let (up, down) = (_mm512_add_ps(x, len), _mm512_sub_ps(x, len));
-        let far = (below & !_mm512_cmp_ps_mask::<_CMP_GE_OQ>(up, lo))
-            | (above & !_mm512_cmp_ps_mask::<_CMP_LT_OQ>(down, hi));
-        let y = _mm512_mask_mov_ps(_mm512_mask_mov_ps(x, below, up), above, down);
-        (y, far)
-    }
-
-    /// Whether this CPU has AVX-512F, for [`points16`].
-    pub(crate) fn has_avx512() -> bool {
-        is_x86_feature_detected!("avx512f")
-    }
-
-    /// [`points8`] for sixteen points (AVX-512F): the same operations in the
-    /// same order per lane, so the same bits.
-    ///
-    /// # Safety
-    /// The CPU has AVX-512F ([`has_avx512`]) and `vel.dims` passes [`lattices`].
-    #[target_feature(enable = "avx512f")]
-    pub(crate) unsafe fn points16(
-        vel: Lattices,
-        wrap: Wrap,
-        g: &mut [Vec3; 16],
-        dt_cells: f32,
-        backtrace: Backtrace,
-        into_box: Option<[usize; 3]>,
-    ) -> u32 {
-        if backtrace == Backtrace::Rk3 {
-            return 0xffff;
-        }
-        let c: [__m512; 3] = std::array::from_fn(|a| {
-            let lanes: [f32; 16] = std::array::from_fn(|l| g[l][a]);
-            // SAFETY: `lanes` holds sixteen f32.
-            unsafe { _mm512_loadu_ps(lanes.as_ptr()) }
-        });
-        let step = |u: [__m512; 3], s: f32| -> [__m512; 3] {
-            std::array::from_fn(|a| _mm512_sub_ps(c[a], _mm512_mul_ps(_mm512_set1_ps(s), u[a])))
-        };
-        // SAFETY (both): as this function's.
-        let (u0, mut bad) = unsafe { velocity16(vel, wrap, c) };
-        let mut p = if backtrace == Backtrace::Rk2 {
-            let (u1, bad1) = unsafe { velocity16(vel, wrap, step(u0, 0.5 * dt_cells)) };
-            bad |= bad1;
-            step(u1, dt_cells)
-        } else {
-            step(u0, dt_cells)
-        };
-        if let Some(n) = into_box {
-            for (pa, n) in p.iter_mut().zip(n) {
-                let (y, far) = wrap16(*pa, n);
-                *pa = y;
-                bad |= far;
-            }
-        }
-        let mut lanes = [[0.0f32; 16]; 3];
-        for (l, pa) in lanes.iter_mut().zip(p) {
-            // SAFETY: `l` holds sixteen f32.
-            unsafe { _mm512_storeu_ps(l.as_mut_ptr(), pa) };
-        }
-        for (l, gl) in g.iter_mut().enumerate() {
-            if bad & (1 << l) == 0 {
-                *gl = Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]);
-            }
-        }
-        u32::from(bad)
-    }
-}
-
-pub(crate) use avx512::{has_avx512, points16};
-
 #[cfg(test)]
 mod tests {
+    use super::super::simd512::{has_avx512, points16};
     use super::*;
     use crate::advection::departure_point;
     use crate::domain::Domain;

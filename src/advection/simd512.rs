@@ -1,0 +1,723 @@
+//! AVX-512 kernels of the semi-Lagrangian sweeps (eqs 6.4–6.5): the AVX2
+//! kernels of [`super::simd`] in sixteen lanes, with the trilinear corners
+//! fetched by row windows instead of gathers where the lanes allow.
+//!
+//! - The grid sweeps: sixteen consecutive faces of one x-row ([`faces16`])
+//!   or sixteen cell centres ([`cells16`]) traced back together (Euler or
+//!   RK2) and interpolated at their departure points ([`faces16`],
+//!   [`sample16`]), every stencil inside its lattice; near the box's faces
+//!   the same with stencils wrapped or clamped ([`faces16_wrapped`],
+//!   [`cells16_wrapped`], [`sample16_wrapped`]).
+//! - Arbitrary points: [`points16`], one backward step of the gridless walk
+//!   and SELMA's map.
+//!
+//! Points traced back from neighbouring cells of one row mostly fall in one
+//! or two lattice rows (the floors of their y and z differ only where the
+//! flow changes sign along the row), and along x within a few cells of
+//! their origin. A [`Window`] of 32 consecutive values of one lattice row,
+//! fetched by two loads and picked by two permutes, then holds the x0 and
+//! x1 corners of every lane in that row. [`trilinear16`] groups the lanes
+//! by row, a window each (up to [`WINDOWS`]); lanes left over, and wrapped
+//! stencils whose lanes span rows, take 64-bit pair gathers.
+//!
+//! Every lane does the scalar sweep's floating-point operations in the same
+//! order (products and sums, no fused multiply-add): the results are the
+//! scalar path's, and the AVX2 kernels', to the bit. Lanes the kernels
+//! cannot do (stencils outside the lattice for the unwrapped kernels;
+//! points more than a period outside, NaN) are reported to the caller,
+//! which does them by the scalar path.
+
+use std::arch::x86_64::*;
+
+use glam::Vec3;
+
+use super::simd::Lattices;
+use super::Backtrace;
+use crate::grid::Wrap;
+
+/// How many lattice rows of a group of sixteen [`trilinear16`] fetches by
+/// windows; the lanes of any further rows are gathered.
+const WINDOWS: usize = 3;
+
+/// Whether this CPU has AVX-512F; the callers fall back to the AVX2
+/// kernels otherwise.
+pub(crate) fn has_avx512() -> bool {
+    is_x86_feature_detected!("avx512f")
+}
+
+/// `⌊g⌋` per lane (0 where it is outside) and `g − ⌊g⌋`, and the lanes
+/// where `0 ≤ ⌊g⌋ ≤ n − 2` (`simd::floor_inside8` in sixteen lanes).
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn floor_inside16(g: __m512, n: usize) -> (__m512i, __m512, __mmask16) {
+    let t = _mm512_cvttps_epi32(g);
+    // −1 where the truncation rounded up (negative non-integers).
+    let up = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_cvtepi32_ps(t), g);
+    let f = _mm512_mask_sub_epi32(t, up, t, _mm512_set1_epi32(1));
+    let frac = _mm512_sub_ps(g, _mm512_cvtepi32_ps(f));
+    let ok = _mm512_cmpge_epi32_mask(f, _mm512_setzero_si512())
+        & _mm512_cmplt_epi32_mask(f, _mm512_set1_epi32(n as i32 - 1));
+    (_mm512_maskz_mov_epi32(ok, f), frac, ok)
+}
+
+/// Lane 0 of `v`.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn first(v: __m512i) -> i32 {
+    _mm_cvtsi128_si32(_mm512_castsi512_si128(v))
+}
+
+/// The weights `(1 − t, t)` of the two corners along one axis.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn weights(t: __m512) -> [__m512; 2] {
+    [_mm512_sub_ps(_mm512_set1_ps(1.0), t), t]
+}
+
+/// `acc + Σ_cx w_x[cx]·w_y·w_z·v[cx]`: one corner row's two corners added
+/// to a trilinear sum, in the scalar order (weight product first).
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn add_row(acc: __m512, wx: [__m512; 2], wy: __m512, wz: __m512, v: [__m512; 2]) -> __m512 {
+    let mut acc = acc;
+    for (wx, v) in wx.into_iter().zip(v) {
+        let weight = _mm512_mul_ps(_mm512_mul_ps(wx, wy), wz);
+        acc = _mm512_add_ps(acc, _mm512_mul_ps(weight, v));
+    }
+    acc
+}
+
+/// The x0 and x1 corners `data[at]`, `data[at + 1]` of sixteen lanes (those
+/// of `lanes`; the others zero): one 64-bit gather per eight lanes, split
+/// by two permutes.
+///
+/// # Safety
+/// Every lane of `lanes` has `0 ≤ at`, `at + 1 < data.len()`; the CPU has
+/// AVX-512F.
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn x_pairs16(data: &[f32], at: __m512i, lanes: __mmask16) -> [__m512; 2] {
+    let pairs = data.as_ptr().cast::<i64>();
+    let zero = _mm512_setzero_si512();
+    // SAFETY: as this function's; gathers need no alignment.
+    let (low, high) = unsafe {
+        (
+            _mm512_mask_i32gather_epi64::<4>(zero, lanes as u8, _mm512_castsi512_si256(at), pairs),
+            _mm512_mask_i32gather_epi64::<4>(
+                zero,
+                (lanes >> 8) as u8,
+                _mm512_extracti64x4_epi64::<1>(at),
+                pairs,
+            ),
+        )
+    };
+    let (low, high) = (_mm512_castsi512_ps(low), _mm512_castsi512_ps(high));
+    let even = _mm512_setr_epi32(0, 2, 4, 6, 8, 10, 12, 14, 16, 18, 20, 22, 24, 26, 28, 30);
+    let odd = _mm512_add_epi32(even, _mm512_set1_epi32(1));
+    [
+        _mm512_permutex2var_ps(low, even, high),
+        _mm512_permutex2var_ps(low, odd, high),
+    ]
+}
+
+/// 32 consecutive values of one lattice row that hold the x0 and x1
+/// corners of some lanes (and, at fixed offsets, those of further corner
+/// rows).
+#[derive(Clone, Copy)]
+struct Window {
+    /// Lattice index of its first value.
+    start: usize,
+    /// The lanes it holds.
+    lanes: __mmask16,
+    /// Each lane's x0 and x1 as offsets into the window (meaningless for
+    /// lanes it does not hold).
+    offsets: [__m512i; 2],
+}
+
+impl Window {
+    /// The window of lattice row `r` starting eight values before `x0` (at
+    /// most at the row's start), holding the lanes of `candidates` whose
+    /// row (of `rows`) is `r` and whose x0 and x1 (of `xs`) fall in it; or
+    /// `None` if, `last_shift` values on, it would end beyond a lattice of
+    /// `len` values.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    fn new(
+        len: usize,
+        (rows, xs): (__m512i, [__m512i; 2]),
+        (r, x0): (i32, i32),
+        candidates: __mmask16,
+        last_shift: usize,
+    ) -> Option<Self> {
+        let base = (x0 - 8).max(0);
+        let start = (r + base) as usize;
+        if start + last_shift + 32 > len {
+            return None;
+        }
+        let offsets = xs.map(|x| _mm512_sub_epi32(x, _mm512_set1_epi32(base)));
+        let fits = |o: __m512i| _mm512_cmplt_epu32_mask(o, _mm512_set1_epi32(32));
+        let lanes = candidates
+            & _mm512_cmpeq_epi32_mask(rows, _mm512_set1_epi32(r))
+            & fits(offsets[0])
+            & fits(offsets[1]);
+        Some(Self {
+            start,
+            lanes,
+            offsets,
+        })
+    }
+
+    /// The x0 and x1 values of its lanes in the row `shift` values on: two
+    /// loads, two permutes.
+    ///
+    /// # Safety
+    /// `shift` is at most the `last_shift` the window was made with, and
+    /// `data` has the `len` it was made with; the CPU has AVX-512F.
+    #[inline]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn fetch(&self, data: &[f32], shift: usize) -> [__m512; 2] {
+        // SAFETY: the 32 values from `start + shift` end inside (`new`).
+        let (a, b) = unsafe {
+            let p = data.as_ptr().add(self.start + shift);
+            (_mm512_loadu_ps(p), _mm512_loadu_ps(p.add(16)))
+        };
+        self.offsets.map(|o| _mm512_permutex2var_ps(a, o, b))
+    }
+}
+
+/// Trilinear interpolation of `data` (lattice `d`) at lattice coordinates
+/// `g` in sixteen lanes, and the lanes whose stencil lies inside the
+/// lattice; if any lane's does not, the value is meaningless (the caller
+/// redoes the group by the wrapping path). Corners, weights and sum in
+/// `simd::trilinear8`'s order (the scalar `trilinear_inside`'s).
+///
+/// # Safety
+/// `data.len() ≥ mx·my·mz < 2³⁰`, every `m ≥ 2` (`simd::lattices`), and the
+/// CPU has AVX-512F.
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn trilinear16(data: &[f32], d: [usize; 3], g: [__m512; 3]) -> (__m512, __mmask16) {
+    let (x, tx, okx) = floor_inside16(g[0], d[0]);
+    let (y, ty, oky) = floor_inside16(g[1], d[1]);
+    let (z, tz, okz) = floor_inside16(g[2], d[2]);
+    let ok = okx & oky & okz;
+    if ok != 0xffff {
+        return (_mm512_setzero_ps(), ok);
+    }
+    let (nx, nxy) = (d[0] as i32, (d[0] * d[1]) as i32);
+    // Each lane's first corner row; the others are the same shifts on.
+    let row = _mm512_mullo_epi32(
+        _mm512_add_epi32(_mm512_mullo_epi32(z, _mm512_set1_epi32(d[1] as i32)), y),
+        _mm512_set1_epi32(nx),
+    );
+    let shifts = [0, nx, nxy, nx + nxy].map(|s| s as usize);
+    let xs = [x, _mm512_add_epi32(x, _mm512_set1_epi32(1))];
+    let (wx, wy, wz) = (weights(tx), weights(ty), weights(tz));
+    let mut acc = _mm512_setzero_ps();
+    // The usual case: every lane in lane 0's row and one window.
+    let all = Window::new(
+        data.len(),
+        (row, xs),
+        (first(row), first(x)),
+        0xffff,
+        shifts[3],
+    );
+    if let Some(w) = all.filter(|w| w.lanes == 0xffff) {
+        // SAFETY (all four): every shift is at most `shifts[3]`, the
+        // window's `last_shift`.
+        acc = add_row(acc, wx, wy[0], wz[0], unsafe { w.fetch(data, shifts[0]) });
+        acc = add_row(acc, wx, wy[1], wz[0], unsafe { w.fetch(data, shifts[1]) });
+        acc = add_row(acc, wx, wy[0], wz[1], unsafe { w.fetch(data, shifts[2]) });
+        acc = add_row(acc, wx, wy[1], wz[1], unsafe { w.fetch(data, shifts[3]) });
+        return (acc, ok);
+    }
+    // Otherwise a window for each of the first `WINDOWS` rows the lanes
+    // fall in, and gathers for any lanes left.
+    let (mut rows, mut x0s) = ([0i32; 16], [0i32; 16]);
+    // SAFETY: each array holds sixteen i32.
+    unsafe {
+        _mm512_storeu_si512(rows.as_mut_ptr().cast(), row);
+        _mm512_storeu_si512(x0s.as_mut_ptr().cast(), x);
+    }
+    let mut windows = [None; WINDOWS];
+    let mut left = 0xffffu16;
+    for w in &mut windows {
+        let l = left.trailing_zeros() as usize;
+        // Lane `l` is always in its own window (its x0 is at offset ≤ 8).
+        *w = Window::new(data.len(), (row, xs), (rows[l], x0s[l]), left, shifts[3]);
+        left &= !w.map_or(0, |w| w.lanes);
+        if w.is_none() || left == 0 {
+            break;
+        }
+    }
+    for (c, &shift) in shifts.iter().enumerate() {
+        let mut v = [_mm512_setzero_ps(); 2];
+        for w in windows.iter().flatten() {
+            // SAFETY: `shift ≤ shifts[3]`, the window's `last_shift`.
+            let [v0, v1] = unsafe { w.fetch(data, shift) };
+            v = [
+                _mm512_mask_mov_ps(v[0], w.lanes, v0),
+                _mm512_mask_mov_ps(v[1], w.lanes, v1),
+            ];
+        }
+        if left != 0 {
+            let at = _mm512_add_epi32(_mm512_add_epi32(row, x), _mm512_set1_epi32(shift as i32));
+            // SAFETY: every lane is inside (`ok`): x ≤ mx − 2, y ≤ my − 2,
+            // z ≤ mz − 2, so the pair at its index in any corner row ends
+            // inside `data`; indices are below 2³⁰.
+            let [v0, v1] = unsafe { x_pairs16(data, at, left) };
+            v = [
+                _mm512_mask_mov_ps(v[0], left, v0),
+                _mm512_mask_mov_ps(v[1], left, v1),
+            ];
+        }
+        acc = add_row(acc, wx, wy[c & 1], wz[c >> 1], v);
+    }
+    (acc, ok)
+}
+
+/// `simd::axis8` in sixteen lanes (AVX-512), the lanes left to the scalar path
+/// as a mask.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn axis16(g: __m512, n: usize, wrap: Wrap) -> (__m512i, __m512i, __m512, __mmask16) {
+    let ni = n as i32;
+    let one = _mm512_set1_epi32(1);
+    let (f, frac, i0, i1, bad) = match wrap {
+        Wrap::Periodic => {
+            let t = _mm512_cvttps_epi32(g);
+            // −1 where the truncation rounded up (negative non-integers).
+            let up = _mm512_cmp_ps_mask::<_CMP_GT_OQ>(_mm512_cvtepi32_ps(t), g);
+            let f = _mm512_mask_sub_epi32(t, up, t, one);
+            let n16 = _mm512_set1_epi32(ni);
+            let below = _mm512_cmplt_epi32_mask(f, _mm512_setzero_si512());
+            let above = _mm512_cmpgt_epi32_mask(f, _mm512_set1_epi32(ni - 1));
+            let i0 = _mm512_mask_add_epi32(f, below, f, n16);
+            let i0 = _mm512_mask_sub_epi32(i0, above, i0, n16);
+            let i1 = _mm512_add_epi32(i0, one);
+            let i1 =
+                _mm512_mask_mov_epi32(i1, _mm512_cmpeq_epi32_mask(i1, n16), _mm512_setzero_si512());
+            let bad = _mm512_cmplt_epi32_mask(f, _mm512_set1_epi32(-ni))
+                | _mm512_cmpgt_epi32_mask(f, _mm512_set1_epi32(2 * ni - 1));
+            (f, g, i0, i1, bad)
+        }
+        Wrap::Clamped => {
+            // As `axis8`: `max(a, b)` is `a > b ? a : b`.
+            let zero = _mm512_setzero_ps();
+            let c = _mm512_min_ps(_mm512_set1_ps((n - 1) as f32), _mm512_max_ps(zero, g));
+            let f = _mm512_cvttps_epi32(c);
+            let i1 = _mm512_min_epi32(_mm512_add_epi32(f, one), _mm512_set1_epi32(ni - 1));
+            (f, c, f, i1, _mm512_cmp_ps_mask::<_CMP_UNORD_Q>(g, g))
+        }
+    };
+    let frac = _mm512_sub_ps(frac, _mm512_cvtepi32_ps(f));
+    let i0 = _mm512_maskz_mov_epi32(!bad, i0);
+    let i1 = _mm512_mask_mov_epi32(i1, bad, one);
+    (i0, i1, frac, bad)
+}
+
+/// `simd::stencil8` in sixteen lanes: trilinear interpolation of `data`
+/// (lattice `d`) at lattice coordinates `g`, wrapped or clamped as the
+/// scalar [`crate::grid::Stencil`] with `wrap` (its corners, weights and
+/// sum in its order), and the lanes left to the scalar path
+/// ([`axis16`]). A corner row whose lanes all lie in one [`Window`] is
+/// fetched by it, any other by gathers.
+///
+/// # Safety
+/// As `simd::stencil8`, with AVX-512F.
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn stencil16(
+    data: &[f32],
+    d: [usize; 3],
+    wrap: Wrap,
+    g: [__m512; 3],
+) -> (__m512, __mmask16) {
+    let (x0, x1, tx, bx) = axis16(g[0], d[0], wrap);
+    let (y0, y1, ty, by) = axis16(g[1], d[1], wrap);
+    let (z0, z1, tz, bz) = axis16(g[2], d[2], wrap);
+    let (mx, my) = (
+        _mm512_set1_epi32(d[0] as i32),
+        _mm512_set1_epi32(d[1] as i32),
+    );
+    let (y, z) = (
+        [y0, y1],
+        [_mm512_mullo_epi32(z0, my), _mm512_mullo_epi32(z1, my)],
+    );
+    let (wx, wy, wz) = (weights(tx), weights(ty), weights(tz));
+    // At a wrapped or clamped x edge the two x-corners are not adjacent in
+    // memory and take 32-bit gathers.
+    let adjacent = _mm512_cmpneq_epi32_mask(x1, _mm512_add_epi32(x0, _mm512_set1_epi32(1))) == 0;
+    let mut acc = _mm512_setzero_ps();
+    for c in 0..4 {
+        let (cy, cz) = (c & 1, c >> 1);
+        let row = _mm512_mullo_epi32(_mm512_add_epi32(z[cz], y[cy]), mx);
+        let window = Window::new(data.len(), (row, [x0, x1]), (first(row), first(x0)), !0, 0);
+        // SAFETY: every index is a lattice index (`axis16`: 0 ≤ x0, x1 < mx,
+        // and so on; indices below 2³⁰, `simd::lattices`), so it and, where
+        // `adjacent`, the next one (x0 ≤ mx − 2) are inside `data`; a
+        // window ends inside (`Window::new`, shift 0).
+        let v = unsafe {
+            match window.filter(|w| w.lanes == 0xffff) {
+                Some(w) => w.fetch(data, 0),
+                None if adjacent => x_pairs16(data, _mm512_add_epi32(row, x0), !0),
+                None => [x0, x1]
+                    .map(|x| _mm512_i32gather_ps::<4>(_mm512_add_epi32(row, x), data.as_ptr())),
+            }
+        };
+        acc = add_row(acc, wx, wy[cy], wz[cz], v);
+    }
+    (acc, bx | by | bz)
+}
+
+/// The velocity at sixteen points `g` (cell-centre grid coordinates):
+/// component `a` trilinear on its lattice at `g + ½e_a`
+/// (`FaceSampler::at`) — through [`trilinear16`] if every lane's stencil
+/// is inside every lattice (the returned mask then all ones), else through
+/// [`stencil16`] if `wrap` is given (the mask then the lanes it leaves to
+/// the scalar path, inverted), else nothing (mask zero).
+///
+/// # Safety
+/// The CPU has AVX-512F and `vel.dims` passes `simd::lattices`.
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn velocity16(
+    vel: Lattices,
+    wrap: Option<Wrap>,
+    g: [__m512; 3],
+) -> ([__m512; 3], __mmask16) {
+    let at = |b: usize| {
+        let mut p = g;
+        p[b] = _mm512_add_ps(p[b], _mm512_set1_ps(0.5));
+        p
+    };
+    let mut u = [_mm512_setzero_ps(); 3];
+    let mut inside = true;
+    for (b, ub) in u.iter_mut().enumerate() {
+        // SAFETY: the lattice of b has vel.data[b]'s length (fits).
+        let (v, lanes) = unsafe { trilinear16(vel.data[b], vel.dims[b], at(b)) };
+        *ub = v;
+        if lanes != 0xffff {
+            inside = false;
+            break;
+        }
+    }
+    if inside {
+        return (u, 0xffff);
+    }
+    let Some(wrap) = wrap else {
+        return (u, 0);
+    };
+    let mut bad = 0;
+    for (b, ub) in u.iter_mut().enumerate() {
+        // SAFETY: as above.
+        let (v, lanes) = unsafe { stencil16(vel.data[b], vel.dims[b], wrap, at(b)) };
+        *ub = v;
+        bad |= lanes;
+    }
+    (u, !bad)
+}
+
+/// Departure points of sixteen points `c` (grid coordinates) whose
+/// velocities are `u0`, traced back through `vel` over `dt_cells = Δt/Δx`
+/// (Euler or RK2) as the scalar `departure` does (its RK2 midpoint through
+/// [`velocity16`], stencils wrapped or clamped by `wrap`), and the lanes
+/// it computed (none for RK3, which is left to the scalar path).
+///
+/// # Safety
+/// The CPU has AVX-512F and `vel.dims` passes `simd::lattices`.
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn trace16(
+    vel: Lattices,
+    wrap: Wrap,
+    c: [__m512; 3],
+    u0: [__m512; 3],
+    dt_cells: f32,
+    backtrace: Backtrace,
+) -> ([__m512; 3], __mmask16) {
+    let step = |u: [__m512; 3], s: f32| -> [__m512; 3] {
+        std::array::from_fn(|a| _mm512_sub_ps(c[a], _mm512_mul_ps(_mm512_set1_ps(s), u[a])))
+    };
+    match backtrace {
+        Backtrace::Euler => (step(u0, dt_cells), 0xffff),
+        Backtrace::Rk2 => {
+            // SAFETY: as this function's.
+            let (u1, done) = unsafe { velocity16(vel, Some(wrap), step(u0, 0.5 * dt_cells)) };
+            (step(u1, dt_cells), done)
+        }
+        Backtrace::Rk3 => (c, 0),
+    }
+}
+
+/// `data` (lattice `d`) at lattice coordinates `g` in sixteen lanes:
+/// [`trilinear16`] where every stencil is inside, else [`stencil16`]
+/// wrapped or clamped by `wrap`; and the lanes it computed.
+///
+/// # Safety
+/// As [`trilinear16`].
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn interpolate16(data: &[f32], d: [usize; 3], wrap: Wrap, g: [__m512; 3]) -> (__m512, u32) {
+    // SAFETY (both): as this function's.
+    let (v, inside) = unsafe { trilinear16(data, d, g) };
+    if inside == 0xffff {
+        return (v, 0xffff);
+    }
+    let (v, bad) = unsafe { stencil16(data, d, wrap, g) };
+    (v, u32::from(!bad))
+}
+
+/// Sixteen values as a vector.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn load16(v: &[f32; 16]) -> __m512 {
+    // SAFETY: `v` holds sixteen f32.
+    unsafe { _mm512_loadu_ps(v.as_ptr()) }
+}
+
+/// Sixteen contiguous values of `data` from `at`.
+///
+/// # Panics
+/// If `at + 16 > data.len()`.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn load16_at(data: &[f32], at: usize) -> __m512 {
+    load16(data[at..at + 16].try_into().expect("sixteen values"))
+}
+
+/// A vector's sixteen lanes.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn lanes16(v: __m512) -> [f32; 16] {
+    let mut out = [0.0; 16];
+    // SAFETY: `out` holds sixteen f32.
+    unsafe { _mm512_storeu_ps(out.as_mut_ptr(), v) };
+    out
+}
+
+/// The grid coordinates of sixteen consecutive points of one x-row from
+/// `f`: cell centres, or with `face = Some(a)` the faces of component `a`
+/// (shifted by −½ along `a`).
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn row_points(f: [usize; 3], face: Option<usize>) -> [__m512; 3] {
+    let lane = _mm512_setr_ps(
+        0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 15.0,
+    );
+    let mut c = [
+        _mm512_add_ps(_mm512_set1_ps(f[0] as f32), lane),
+        _mm512_set1_ps(f[1] as f32),
+        _mm512_set1_ps(f[2] as f32),
+    ];
+    if let Some(a) = face {
+        c[a] = _mm512_sub_ps(c[a], _mm512_set1_ps(0.5));
+    }
+    c
+}
+
+/// The velocity at the sixteen faces `(i, j, k) … (i + 15, j, k)` of
+/// component `A` as `FaceSampler::at_face` finds it away from the box's
+/// faces: its own value, each other component the mean of four faces.
+///
+/// # Panics
+/// Unless `1 ≤ i`, `i + 16 ≤ n_x − 1`, `1 ≤ j ≤ n_y − 2` and
+/// `1 ≤ k ≤ n_z − 2` (`n` the cell counts), where no face wraps.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn face_velocities16<const A: usize>(vel: Lattices, f: [usize; 3]) -> [__m512; 3] {
+    let mut u = [_mm512_setzero_ps(); 3];
+    for (b, ub) in u.iter_mut().enumerate() {
+        let d = vel.dims[b];
+        let here = (f[2] * d[1] + f[1]) * d[0] + f[0];
+        if b == A {
+            *ub = load16_at(vel.data[b], here);
+            continue;
+        }
+        let strides = [1, d[0], d[0] * d[1]];
+        let (sa, sb) = (strides[A], strides[b]);
+        let mut sum = _mm512_setzero_ps();
+        for p in [here - sa, here - sa + sb, here, here + sb] {
+            sum = _mm512_add_ps(sum, load16_at(vel.data[b], p));
+        }
+        *ub = _mm512_mul_ps(_mm512_set1_ps(0.25), sum);
+    }
+    u
+}
+
+/// The velocity at the sixteen cell centres `(i, j, k) … (i + 15, j, k)` as
+/// `FaceSampler::at_cell` finds it where no face wraps: per component the
+/// mean of the cell's two faces, in its order.
+///
+/// # Panics
+/// Unless every cell's upper face is inside its lattice (`i + 16 < mx` of
+/// `u`, `j + 1 < my` of `v`, `k + 1 < mz` of `w`).
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn cell_velocities16(vel: Lattices, f: [usize; 3]) -> [__m512; 3] {
+    let mut u = [_mm512_setzero_ps(); 3];
+    for (a, ua) in u.iter_mut().enumerate() {
+        let d = vel.dims[a];
+        let here = (f[2] * d[1] + f[1]) * d[0] + f[0];
+        let up = here + [1, d[0], d[0] * d[1]][a];
+        let sum = _mm512_add_ps(load16_at(vel.data[a], here), load16_at(vel.data[a], up));
+        *ua = _mm512_mul_ps(_mm512_set1_ps(0.5), sum);
+    }
+    u
+}
+
+/// The faces `(i, j, k) … (i + 15, j, k)` of component `A`, whose
+/// velocities are `u0` (`None`: away from the box's faces, where
+/// [`face_velocities16`] finds them): `data` (laid out like component `A`'s lattice) at
+/// each face's departure point through `vel` over `dt_cells = Δt/Δx`
+/// (stencils wrapped or clamped by `wrap`), into `out`. Returns the lanes
+/// left to the scalar path (bit `l` for lane `l`; those values are
+/// meaningless). Euler and RK2 only.
+///
+/// # Safety
+/// The CPU has AVX-512F ([`has_avx512`]), `vel.dims` passes
+/// `simd::lattices`, and `data` has component `A`'s lattice length.
+///
+/// # Panics
+/// If `out` is shorter than sixteen.
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn faces16<const A: usize>(
+    vel: Lattices,
+    wrap: Wrap,
+    (data, out): (&[f32], &mut [f32]),
+    f: [usize; 3],
+    u0: Option<&[[f32; 16]; 3]>,
+    (dt_cells, backtrace): (f32, Backtrace),
+) -> u32 {
+    let c = row_points(f, Some(A));
+    let u0 = match u0 {
+        Some(u0) => u0.map(|u| load16(&u)),
+        None => face_velocities16::<A>(vel, f),
+    };
+    // SAFETY: as this function's.
+    let (mut g, traced) = unsafe { trace16(vel, wrap, c, u0, dt_cells, backtrace) };
+    g[A] = _mm512_add_ps(g[A], _mm512_set1_ps(0.5));
+    // SAFETY: `data` has component A's lattice length (caller).
+    let (v, done) = unsafe { interpolate16(data, vel.dims[A], wrap, g) };
+    out[..16].copy_from_slice(&lanes16(v));
+    !(u32::from(traced) & done) & 0xffff
+}
+
+/// The departure points of the cell centres `(i, j, k) … (i + 15, j, k)`,
+/// whose velocities are `u0` (`None`: where no face wraps, and
+/// [`cell_velocities16`] finds them), traced back through `vel` over `dt_cells =
+/// Δt/Δx` (Euler or RK2; stencils wrapped or clamped by `wrap`), into
+/// `out = [x, y, z]` (sixteen each). Returns the lanes left to the scalar
+/// path (their points meaningless).
+///
+/// # Safety
+/// The CPU has AVX-512F ([`has_avx512`]) and `vel.dims` passes
+/// `simd::lattices`.
+///
+/// # Panics
+/// If an `out` slice is shorter than sixteen.
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn cells16(
+    vel: Lattices,
+    wrap: Wrap,
+    f: [usize; 3],
+    u0: Option<&[[f32; 16]; 3]>,
+    (dt_cells, backtrace): (f32, Backtrace),
+    out: [&mut [f32]; 3],
+) -> u32 {
+    let c = row_points(f, None);
+    let u0 = match u0 {
+        Some(u0) => u0.map(|u| load16(&u)),
+        None => cell_velocities16(vel, f),
+    };
+    // SAFETY: as this function's.
+    let (g, done) = unsafe { trace16(vel, wrap, c, u0, dt_cells, backtrace) };
+    for (o, v) in out.into_iter().zip(g) {
+        o[..16].copy_from_slice(&lanes16(v));
+    }
+    !u32::from(done) & 0xffff
+}
+
+/// `data` (a cell-centred grid of `dims` cells, wrapped or clamped by
+/// `wrap`) at the sixteen grid-coordinate points `g = [x, y, z]`, into
+/// `out`. Returns the lanes left to the scalar path (their values
+/// meaningless).
+///
+/// # Safety
+/// The CPU has AVX-512F; `dims` passes `simd::lattices` as a lattice.
+///
+/// # Panics
+/// If `data` is shorter than `dims`, or a slice of `g` or `out` shorter
+/// than sixteen.
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn sample16(
+    data: &[f32],
+    (dims, wrap): ([usize; 3], Wrap),
+    g: [&[f32]; 3],
+    out: &mut [f32],
+) -> u32 {
+    assert!(
+        data.len() >= dims.iter().product::<usize>(),
+        "sample16: data"
+    );
+    let g = g.map(|x| load16(x[..16].try_into().expect("sixteen points")));
+    // SAFETY: data covers the lattice (asserted), which fits (caller).
+    let (v, done) = unsafe { interpolate16(data, dims, wrap, g) };
+    out[..16].copy_from_slice(&lanes16(v));
+    !done & 0xffff
+}
+
+/// `simd::wrap8` in sixteen lanes (AVX-512).
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn wrap16(x: __m512, n: usize) -> (__m512, __mmask16) {
+    let (lo, len) = (_mm512_set1_ps(-0.5), _mm512_set1_ps(n as f32));
+    let hi = _mm512_set1_ps(-0.5 + n as f32);
+    let below = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(x, lo);
+    let above = _mm512_cmp_ps_mask::<_CMP_GE_OQ>(x, hi);
+    let (up, down) = (_mm512_add_ps(x, len), _mm512_sub_ps(x, len));
+    let far = (below & !_mm512_cmp_ps_mask::<_CMP_GE_OQ>(up, lo))
+        | (above & !_mm512_cmp_ps_mask::<_CMP_LT_OQ>(down, hi));
+    let y = _mm512_mask_mov_ps(_mm512_mask_mov_ps(x, below, up), above, down);
+    (y, far)
+}
+
+/// `simd::points8` for sixteen points: the same operations in the same
+/// order per lane, so the same bits. Returns the lanes left to the scalar
+/// path (not written).
+///
+/// # Safety
+/// The CPU has AVX-512F ([`has_avx512`]) and `vel.dims` passes
+/// `simd::lattices`.
+#[target_feature(enable = "avx512f")]
+pub(crate) unsafe fn points16(
+    vel: Lattices,
+    wrap: Wrap,
+    g: &mut [Vec3; 16],
+    dt_cells: f32,
+    backtrace: Backtrace,
+    into_box: Option<[usize; 3]>,
+) -> u32 {
+    if backtrace == Backtrace::Rk3 {
+        return 0xffff;
+    }
+    let c: [__m512; 3] = std::array::from_fn(|a| load16(&std::array::from_fn(|l| g[l][a])));
+    // SAFETY (both): as this function's.
+    let (u0, first) = unsafe { velocity16(vel, Some(wrap), c) };
+    let (mut p, done) = unsafe { trace16(vel, wrap, c, u0, dt_cells, backtrace) };
+    let mut bad = !(first & done);
+    if let Some(n) = into_box {
+        for (pa, n) in p.iter_mut().zip(n) {
+            let (y, far) = wrap16(*pa, n);
+            *pa = y;
+            bad |= far;
+        }
+    }
+    let lanes = p.map(|v| lanes16(v));
+    for (l, gl) in g.iter_mut().enumerate() {
+        if bad & (1 << l) == 0 {
+            *gl = Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]);
+        }
+    }
+    u32::from(bad)
+}
