@@ -3,13 +3,22 @@
 //! Reproduces the notes' figure 7.10 (§7.3): the sphere wall held gridded
 //! for `F − k` frames and gridless for the last `k` (eqs 7.1–7.4), for
 //! `k = 0, F/6, …, F`, rendered with a march step of one velocity cell and
-//! of a tenth of one. For each: the render's wall time and the bytes held
-//! by the density representation when it is rendered — the row grids
-//! (one per row, velocity resolution) plus the `k` stored velocity grids of
-//! the gridless chain, each allocation once. (Here `k = F` composes the
-//! frame-0 grids, so every point holds the same row grids; 07-8 composes
-//! the analytic wall.) The notes expect both to grow linearly in `k`, time
-//! ten times faster with the ten-times finer march.
+//! of a tenth of one. For each: the render's wall time, its counted work
+//! (`walk_steps`: the backward steps the gridless chain walks, points
+//! mapped × `k`) and the bytes held by the density representation when it
+//! is rendered — the row grids (one per row, velocity resolution) plus the
+//! `k` stored velocity grids of the gridless chain, each allocation once.
+//! (Here `k = F` composes the frame-0 grids, so every point holds the same
+//! row grids; 07-8 composes the analytic wall.) The notes expect both to
+//! grow linearly in `k`, time ten times faster with the ten-times finer
+//! march.
+//!
+//! Measured (smoke size, 16³, F = 6): the walk steps are exactly `k` times
+//! 34 118 (march = cell, 30 022 samples) and 292 754 (cell/10, 288 658
+//! samples) — each sample and each of the light grid's 4096 points walked
+//! once for all rows (they share one memoised map); the wall time grows
+//! with them plus the march's fixed costs (fine march 0.027 s at `k = 0`,
+//! 0.053–0.055 s at `k = 6`).
 //!
 //! Memory is also *measured* per point (`memory::measure`): the holding is
 //! built — from its own copies of the `k` velocity grids, which a
@@ -166,12 +175,14 @@ fn empty_space(
         "unskipped": {
             "render_seconds": plain.render_seconds,
             "samples": plain.samples,
+            "walk_steps": plain.walk_steps,
             "samples_per_second": rate(plain.samples, plain.render_seconds),
         },
         "skipped": {
             "render_seconds": stats.seconds,
             "samples": stats.samples,
             "skipped": stats.skipped,
+            "walk_steps": state.walk_steps(),
             "samples_per_second": stats.samples_per_second,
             "substeps_per_second": stats.substeps_per_second,
         },

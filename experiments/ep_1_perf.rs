@@ -13,8 +13,9 @@
 //! - **stages**: the median of each stage's wall seconds that the step
 //!   records (`Simulation::times`: advect, density, force, project);
 //! - **the floor**: one real 3D FFT pair of the same size — the faster of a
-//!   plain f32 pair (realfft r2c along x, rustfft along y and z, the inverse
-//!   back, [`FftPair`]) and the solver's own planned f64 pair
+//!   f32 pair (the solver's periodic pair `PeriodicFft` in f32: realfft r2c
+//!   along x, rustfft along y and z, the inverse back, [`FftPair`]) and the
+//!   solver's own planned f64 pair
 //!   (`PressureSolver::solve_poisson`) — plus one bandwidth-bound pass over
 //!   the fused advection's fields (five f32 arrays of the cells read and
 //!   five written: the three velocity components and the two gases),
@@ -56,14 +57,10 @@
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context as _, Result};
 use rayon::prelude::*;
-use realfft::num_complex::Complex32;
-use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
-use rustfft::{Fft, FftPlanner};
 
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style};
 use crate::registry::{Context, Experiment, Size};
@@ -76,6 +73,7 @@ use smokelab::fit::linear_fit;
 use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::io::{self, manifest::Manifest};
 use smokelab::metrics::{self, SpectralShare};
+use smokelab::pressure::periodic_fft::PeriodicFft;
 use smokelab::pressure::PressureSolver;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::{Scenario, SolverConfig};
@@ -358,129 +356,29 @@ fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]
     })
 }
 
-/// One forward and one inverse real 3D FFT of an `n³` f32 array: r2c along
-/// x (realfft), complex transforms along y and z (rustfft), then the
-/// inverses in reverse order; unnormalised, as the peers' pairs. y lines
-/// are transposed within a z-slab, z lines through one blocked transpose
-/// of the spectrum.
+/// One forward and one inverse real 3D FFT of an `n³` f32 array: the
+/// pressure solver's periodic pair ([`PeriodicFft`]) in f32, under a unit
+/// gain; unnormalised, as the peers' pairs.
 struct FftPair {
-    n: usize,
-    r2c: Arc<dyn RealToComplex<f32>>,
-    c2r: Arc<dyn ComplexToReal<f32>>,
-    fwd: Arc<dyn Fft<f32>>,
-    inv: Arc<dyn Fft<f32>>,
+    fft: PeriodicFft<f32>,
     input: Vec<f32>,
     output: Vec<f32>,
-    /// `[z][y][kx]`, `kx < n/2 + 1`.
-    spectrum: Vec<Complex32>,
-    /// `[(y, kx)][z]`.
-    lines: Vec<Complex32>,
 }
-
-/// z lines per task of the blocked transposes.
-const BLOCK: usize = 16;
 
 impl FftPair {
     fn new(n: usize) -> Self {
-        let mut real = RealFftPlanner::<f32>::new();
-        let mut complex = FftPlanner::<f32>::new();
-        let h = n / 2 + 1;
         Self {
-            n,
-            r2c: real.plan_fft_forward(n),
-            c2r: real.plan_fft_inverse(n),
-            fwd: complex.plan_fft_forward(n),
-            inv: complex.plan_fft_inverse(n),
+            fft: PeriodicFft::new([n; 3]),
             input: (0..n * n * n)
                 .map(|i| ((i * 7919) % 1009) as f32 / 1009.0 - 0.5)
                 .collect(),
             output: vec![0.0; n * n * n],
-            spectrum: vec![Complex32::default(); n * n * h],
-            lines: vec![Complex32::default(); n * n * h],
-        }
-    }
-
-    /// Transform every `n`-line along y of a `[y][kx]` slab with `fft`,
-    /// through `t`, a slab-sized buffer.
-    fn y_lines(fft: &dyn Fft<f32>, slab: &mut [Complex32], t: &mut [Complex32], n: usize) {
-        let h = slab.len() / n;
-        for (y, row) in slab.chunks(h).enumerate() {
-            for (kx, v) in row.iter().enumerate() {
-                t[kx * n + y] = *v;
-            }
-        }
-        fft.process(t);
-        for (y, row) in slab.chunks_mut(h).enumerate() {
-            for (kx, v) in row.iter_mut().enumerate() {
-                *v = t[kx * n + y];
-            }
         }
     }
 
     fn run(&mut self) {
-        let (n, h) = (self.n, self.n / 2 + 1);
-        let slab = n * h;
-        let (r2c, fwd) = (&self.r2c, &self.fwd);
-        self.input
-            .par_chunks(n * n)
-            .zip(self.spectrum.par_chunks_mut(slab))
-            .for_each_init(
-                || (vec![0.0f32; n], vec![Complex32::default(); slab]),
-                |(row, t), (src, dst)| {
-                    for (r, d) in src.chunks(n).zip(dst.chunks_mut(h)) {
-                        row.copy_from_slice(r);
-                        r2c.process(row, d).expect("r2c lengths are planned");
-                    }
-                    Self::y_lines(fwd.as_ref(), dst, t, n);
-                },
-            );
-        let spectrum = &self.spectrum;
-        self.lines
-            .par_chunks_mut(n * BLOCK)
-            .enumerate()
-            .for_each(|(b, block)| {
-                let cols = block.len() / n;
-                for z in 0..n {
-                    let row = &spectrum[z * slab + b * BLOCK..][..cols];
-                    for (j, v) in row.iter().enumerate() {
-                        block[j * n + z] = *v;
-                    }
-                }
-                self.fwd.process(block);
-                self.inv.process(block);
-            });
-        let lines = &self.lines;
-        self.spectrum
-            .par_chunks_mut(slab * BLOCK)
-            .enumerate()
-            .for_each(|(b, slabs)| {
-                let z0 = b * BLOCK;
-                let zs = slabs.len() / slab;
-                for col in 0..slab {
-                    for dz in 0..zs {
-                        slabs[dz * slab + col] = lines[col * n + z0 + dz];
-                    }
-                }
-            });
-        let (c2r, inv) = (&self.c2r, &self.inv);
-        self.spectrum
-            .par_chunks_mut(slab)
-            .zip(self.output.par_chunks_mut(n * n))
-            .for_each_init(
-                || vec![Complex32::default(); slab],
-                |t, (src, dst)| {
-                    Self::y_lines(inv.as_ref(), src, t, n);
-                    for (c, d) in src.chunks_mut(h).zip(dst.chunks_mut(n)) {
-                        // The x transform of a real field: its kx = 0 and
-                        // Nyquist terms are real (round-off removed).
-                        c[0].im = 0.0;
-                        if n % 2 == 0 {
-                            c[h - 1].im = 0.0;
-                        }
-                        c2r.process(c, d).expect("c2r lengths are planned");
-                    }
-                },
-            );
+        self.fft.forward(&self.input, |v| v);
+        self.fft.inverse(|_, _| {}, &mut self.output, |r| r);
     }
 }
 

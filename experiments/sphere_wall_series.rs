@@ -310,6 +310,9 @@ pub(crate) struct CostRow {
     pub rss_peak_bytes: Option<usize>,
     /// Camera-ray samples.
     pub samples: u64,
+    /// Backward steps walked by the gridless chain over the build and the
+    /// render ([`AdvectedWall::walk_steps`]; zero without a chain).
+    pub walk_steps: u64,
 }
 
 impl CostRow {
@@ -329,9 +332,9 @@ impl CostRow {
         let (out, peak) = memory::measure(|| -> Result<_> {
             let state = build()?;
             let (img, stats) = render_wall(&state, flow, march_div, size)?;
-            Ok((img, stats, state.bytes()))
+            Ok((img, stats, state.bytes(), state.walk_steps()))
         });
-        let (img, stats, density_bytes) = out?;
+        let (img, stats, density_bytes, walk_steps) = out?;
         let row = Self {
             series: series.into(),
             frames,
@@ -340,6 +343,7 @@ impl CostRow {
             heap_peak_bytes: peak.heap_bytes,
             rss_peak_bytes: peak.rss_bytes,
             samples: stats.samples,
+            walk_steps,
         };
         Ok((row, img))
     }

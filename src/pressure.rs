@@ -87,16 +87,15 @@
 //! transform runs in three parallel passes (rayon): x and y lines of one
 //! z-slab per task; z lines of one x-frequency per task, with the spectral
 //! multiply fused between the forward and inverse z transforms; then the y
-//! and x inverses of a few z-slabs per task.
+//! and x inverses of a few z-slabs per task. The periodic box's pair is
+//! [`periodic_fft::PeriodicFft`] in f64 (the same type in f32 is the FFT
+//! floor of experiment P-1).
 
 use std::f64::consts::PI;
 use std::sync::Arc;
 
 use rayon::prelude::*;
-use realfft::num_complex::Complex64;
-use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use rustdct::{DctPlanner, Dst1, TransformType2And3};
-use rustfft::{Fft, FftPlanner};
 
 use crate::domain::Domain;
 use crate::error::InputError;
@@ -104,6 +103,9 @@ use crate::grid::face::{BoxKind, FaceGrid, Real};
 use crate::grid::ScalarGrid;
 
 pub mod obstacles;
+pub mod periodic_fft;
+
+use periodic_fft::PeriodicFft;
 
 /// What to multiply each mode by between the forward and inverse transform.
 #[derive(Clone, Copy, Debug)]
@@ -179,22 +181,11 @@ fn gain_tables(eig: &[Vec<f64>; 3], filter: Filter, dx: f32) -> [Vec<f64>; 3] {
 /// slabs reads whole cache lines of the columns.
 const SLAB_BLOCK: usize = 8;
 
-/// Periodic box: real FFT along x, complex FFTs along y and z.
+/// Periodic box: the real FFT pair ([`PeriodicFft`]) in f64 and its
+/// eigenvalues.
 #[derive(Clone)]
 struct PeriodicPlan {
-    dims: [usize; 3],
-    /// Complex bins along x, `nx/2 + 1`.
-    nxh: usize,
-    r2c: Arc<dyn RealToComplex<f64>>,
-    c2r: Arc<dyn ComplexToReal<f64>>,
-    fft_y: Arc<dyn Fft<f64>>,
-    ifft_y: Arc<dyn Fft<f64>>,
-    fft_z: Arc<dyn Fft<f64>>,
-    ifft_z: Arc<dyn Fft<f64>>,
-    /// Spectra after the x and y passes, layout `[z][kx][ky]`.
-    slabs: Vec<Complex64>,
-    /// Full spectra, layout `[kx][ky][kz]`.
-    columns: Vec<Complex64>,
+    fft: PeriodicFft<f64>,
     /// `λ_a(m)` per axis and bin.
     eig: [Vec<f64>; 3],
     /// Cell size Δx.
@@ -204,151 +195,35 @@ struct PeriodicPlan {
 impl PeriodicPlan {
     fn new(domain: &Domain) -> Self {
         let [nx, ny, nz] = domain.dims;
-        let nxh = nx / 2 + 1;
-        let mut real = RealFftPlanner::<f64>::new();
-        let mut complex = FftPlanner::<f64>::new();
-        let bins = [nxh, ny, nz];
+        let bins = [nx / 2 + 1, ny, nz];
         let eig = std::array::from_fn(|a| {
             (0..bins[a])
                 .map(|m| eigenvalue(m, domain.dims[a], domain.cell))
                 .collect()
         });
-        let len = nxh * ny * nz;
         Self {
-            dims: domain.dims,
-            nxh,
-            r2c: real.plan_fft_forward(nx),
-            c2r: real.plan_fft_inverse(nx),
-            fft_y: complex.plan_fft_forward(ny),
-            ifft_y: complex.plan_fft_inverse(ny),
-            fft_z: complex.plan_fft_forward(nz),
-            ifft_z: complex.plan_fft_inverse(nz),
-            slabs: vec![Complex64::default(); len],
-            columns: vec![Complex64::default(); len],
+            fft: PeriodicFft::new(domain.dims),
             eig,
             dx: domain.cell,
         }
     }
 
-    /// Pass 1: `src` (`[z][y][x]`) → `slabs`, transformed along x and y.
+    /// Pass 1: `src` (`[z][y][x]`) transformed along x and y.
     fn forward<S: Real>(&mut self, src: &[S]) {
-        let [nx, ny, nz] = self.dims;
-        assert_eq!(src.len(), nx * ny * nz, "forward: lattice size");
-        let nxh = self.nxh;
-        let (r2c, fft_y) = (&self.r2c, &self.fft_y);
-        self.slabs
-            .par_chunks_mut(nxh * ny)
-            .zip(src.par_chunks(nx * ny))
-            .for_each_init(
-                || {
-                    (
-                        vec![0.0f64; nx],
-                        vec![Complex64::default(); nxh],
-                        vec![Complex64::default(); r2c.get_scratch_len()],
-                        vec![Complex64::default(); fft_y.get_inplace_scratch_len()],
-                    )
-                },
-                |(real, line, rs, fs), (slab, s)| {
-                    for (j, row) in s.chunks_exact(nx).enumerate() {
-                        for (r, &v) in real.iter_mut().zip(row) {
-                            *r = v.to_f64();
-                        }
-                        r2c.process_with_scratch(real, line, rs)
-                            .expect("r2c buffer sizes are planned");
-                        for (i, &c) in line.iter().enumerate() {
-                            slab[i * ny + j] = c;
-                        }
-                    }
-                    fft_y.process_with_scratch(slab, fs);
-                },
-            );
+        self.fft.forward(src, S::to_f64);
     }
 
-    /// Passes 2 and 3: z transform, gain, inverse z into `columns`; then
-    /// inverse y and x into `dst`, scaled by `1/(nx ny nz)`.
+    /// Passes 2 and 3: z transform, gain, inverse z; then inverse y and x
+    /// into `dst`, scaled by `1/(nx ny nz)`.
     fn finish<S: Real>(&mut self, filter: Filter, dst: &mut [S]) {
-        let [nx, ny, nz] = self.dims;
-        assert_eq!(dst.len(), nx * ny * nz, "finish: lattice size");
-        let nxh = self.nxh;
+        let [nx, ny, nz] = self.fft.dims();
         let tables = gain_tables(&self.eig, filter, self.dx);
-        let Self {
-            c2r,
-            fft_y: _,
-            ifft_y,
-            fft_z,
-            ifft_z,
-            slabs,
-            columns,
-            ..
-        } = self;
-        let zs = fft_z
-            .get_inplace_scratch_len()
-            .max(ifft_z.get_inplace_scratch_len());
-        {
-            let slabs = &*slabs;
-            columns.par_chunks_mut(ny * nz).enumerate().for_each_init(
-                || vec![Complex64::default(); zs],
-                |scratch, (i, col)| {
-                    for k in 0..nz {
-                        let src = &slabs[(k * nxh + i) * ny..][..ny];
-                        for (j, &c) in src.iter().enumerate() {
-                            col[j * nz + k] = c;
-                        }
-                    }
-                    fft_z.process_with_scratch(col, scratch);
-                    apply_gain(col, i, nz, filter, &tables);
-                    ifft_z.process_with_scratch(col, scratch);
-                },
-            );
-        }
-        let cols = &*columns;
         let scale = 1.0 / (nx * ny * nz) as f64;
-        let even_x = nx % 2 == 0;
-        slabs
-            .par_chunks_mut(SLAB_BLOCK * nxh * ny)
-            .zip(dst.par_chunks_mut(SLAB_BLOCK * nx * ny))
-            .enumerate()
-            .for_each_init(
-                || {
-                    (
-                        vec![0.0f64; nx],
-                        vec![Complex64::default(); nxh],
-                        vec![Complex64::default(); c2r.get_scratch_len()],
-                        vec![Complex64::default(); ifft_y.get_inplace_scratch_len()],
-                    )
-                },
-                |(real, line, rs, fs), (block, (slabs, out))| {
-                    let k0 = block * SLAB_BLOCK;
-                    let depth = slabs.len() / (nxh * ny);
-                    for (n, col) in cols.chunks_exact(nz).enumerate() {
-                        for (d, &c) in col[k0..k0 + depth].iter().enumerate() {
-                            slabs[d * nxh * ny + n] = c;
-                        }
-                    }
-                    for (slab, out) in slabs
-                        .chunks_exact_mut(nxh * ny)
-                        .zip(out.chunks_exact_mut(nx * ny))
-                    {
-                        ifft_y.process_with_scratch(slab, fs);
-                        for (j, row) in out.chunks_exact_mut(nx).enumerate() {
-                            for (i, l) in line.iter_mut().enumerate() {
-                                *l = slab[i * ny + j];
-                            }
-                            // A real signal has real DC and (even nx) Nyquist
-                            // bins: drop the round-off imaginary parts.
-                            line[0].im = 0.0;
-                            if even_x {
-                                line[nxh - 1].im = 0.0;
-                            }
-                            c2r.process_with_scratch(line, real, rs)
-                                .expect("c2r buffer sizes are planned");
-                            for (o, &r) in row.iter_mut().zip(real.iter()) {
-                                *o = S::from_f64(r * scale);
-                            }
-                        }
-                    }
-                },
-            );
+        self.fft.inverse(
+            |i, col| apply_gain(col, i, nz, filter, &tables),
+            dst,
+            |r| S::from_f64(r * scale),
+        );
     }
 }
 

@@ -24,12 +24,14 @@
 //!     fig 8.1; a map grid finer than the velocity's is SELMA^fine (fig 8.2).
 //!
 //! All rows share one map; the map is wrapped in [`memo::Memo`] so a batch
-//! of march samples walks the chain once for all rows.
+//! of march samples walks the chain once for all rows. The walk's work is
+//! counted ([`AdvectedWall::walk_steps`]: points mapped × stored steps).
 //!
 //! Memory ([`AdvectedWall::bytes`]) counts the buffers the representation
 //! holds when it is rendered: the row grids, the stored velocity grids of
 //! the gridless chain, the SELMA model's grids — each allocation once.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use glam::Vec3;
@@ -39,7 +41,7 @@ use crate::advection::{interpolate_scalar, Backtrace, Departures};
 use crate::density::{total_bytes, Buffer, GridlessField, MapField, Selma, StepInput};
 use crate::domain::Domain;
 use crate::error::{check_non_negative, check_positive, InputError};
-use crate::field::{memo, ops, Scalar, ScalarField};
+use crate::field::{memo, ops, Scalar, ScalarField, VectorField};
 use crate::grid::{FaceGrid, ScalarGrid};
 use crate::render::occupancy::{self, Occupancy, Support};
 use crate::scenario::hot_cold::HotColdConfig;
@@ -344,6 +346,34 @@ pub struct AdvectedWall {
     /// Where any row may be positive (`render::occupancy`), when the rows
     /// are known grids, composed or not (`None`: the analytic wall, SELMA).
     pub occupancy: Option<Arc<Occupancy>>,
+    /// Backward steps walked by the gridless chain so far (zero without one).
+    walked: Arc<AtomicU64>,
+}
+
+/// The gridless chain's backward map, counting its work: each point mapped
+/// is walked back through every stored step.
+struct CountedWalk {
+    map: MapField<GridlessField>,
+    walked: Arc<AtomicU64>,
+}
+
+impl CountedWalk {
+    fn count(&self, points: usize) {
+        let steps = (points * self.map.0.steps()) as u64;
+        self.walked.fetch_add(steps, Ordering::Relaxed);
+    }
+}
+
+impl VectorField for CountedWalk {
+    fn eval(&self, p: Vec3) -> Vec3 {
+        self.count(1);
+        self.map.eval(p)
+    }
+
+    fn eval_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
+        self.count(points.len());
+        self.map.eval_batch(points, out);
+    }
 }
 
 impl AdvectedWall {
@@ -360,6 +390,7 @@ impl AdvectedWall {
                 &support,
                 occupancy::BLOCK,
             ))),
+            walked: Arc::default(),
         }
     }
 
@@ -380,6 +411,7 @@ impl AdvectedWall {
                     rows: wall.rows.clone(),
                     buffers: vec![],
                     occupancy: None,
+                    walked: Arc::default(),
                 },
             ),
         };
@@ -407,7 +439,10 @@ impl AdvectedWall {
                 occupancy::BLOCK,
             ))
         });
-        let map = memo::memo(Arc::new(MapField(chain)));
+        let map = memo::memo(Arc::new(CountedWalk {
+            map: MapField(chain),
+            walked: Arc::clone(&this.walked),
+        }));
         this.rows = this
             .rows
             .into_iter()
@@ -429,12 +464,20 @@ impl AdvectedWall {
                 .collect(),
             buffers,
             occupancy: None,
+            walked: Arc::default(),
         }
     }
 
     /// Bytes held, each allocation once.
     pub fn bytes(&self) -> usize {
         total_bytes(self.buffers.iter().copied())
+    }
+
+    /// Backward steps the gridless chain has walked (points it mapped ×
+    /// its stored steps; the memo's repeats are not walked), over every
+    /// evaluation so far: the render work that grows with the chain.
+    pub fn walk_steps(&self) -> u64 {
+        self.walked.load(Ordering::Relaxed)
     }
 }
 
