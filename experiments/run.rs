@@ -174,7 +174,7 @@ impl StepMeasures {
     pub fn take(sim: &Simulation, points: &[Vec3]) -> Self {
         Self {
             velocity: metrics::velocity_stats(&sim.velocity),
-            div_interp: metrics::interpolant_divergence(&sim.velocity, sim.domain(), points),
+            div_interp: metrics::face_interpolant_divergence(&sim.velocity, points),
             mirror: (sim.gases.len() == 2)
                 .then(|| metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density())),
         }

@@ -594,6 +594,40 @@ pub(crate) unsafe fn points8(
     bad
 }
 
+/// The velocity at eight points `g` (cell-centre grid coordinates) as
+/// `FaceSampler::at` finds them, into `out`; returns a bit mask (bit `l` for
+/// lane `l`) of the lanes left to the scalar path (points more than a period
+/// outside, NaN), whose `out` is not written. The batched point query,
+/// [`crate::grid::FaceGrid::sample_points`].
+///
+/// # Safety
+/// The CPU has AVX2 and `vel.dims` passes [`lattices`].
+#[target_feature(enable = "avx2")]
+pub(crate) unsafe fn velocities8(
+    vel: Lattices,
+    wrap: Wrap,
+    g: &[Vec3; 8],
+    out: &mut [Vec3; 8],
+) -> u32 {
+    let c: [__m256; 3] = std::array::from_fn(|a| {
+        let lanes: [f32; 8] = std::array::from_fn(|l| g[l][a]);
+        load8(&lanes, 0)
+    });
+    // SAFETY: as this function's.
+    let (u, bad) = unsafe { velocity8_wrapped(vel, wrap, c) };
+    let bad = _mm256_movemask_ps(_mm256_castsi256_ps(bad)) as u32;
+    let mut lanes = [[0.0f32; 8]; 3];
+    for (l, ua) in lanes.iter_mut().zip(u) {
+        store8(l, ua);
+    }
+    for (l, o) in out.iter_mut().enumerate() {
+        if bad & (1 << l) == 0 {
+            *o = Vec3::new(lanes[0][l], lanes[1][l], lanes[2][l]);
+        }
+    }
+    bad
+}
+
 #[cfg(test)]
 mod tests {
     use super::super::simd512::{has_avx512, points16};
