@@ -128,16 +128,18 @@ macro_rules! with_avx2 {
     ($(#[$doc:meta])* fn $name:ident = $kernel:ident($($arg:ident: $ty:ty),*) -> $ret:ty) => {
         $(#[$doc])*
         fn $name($($arg: $ty),*) -> $ret {
-            #[target_feature(enable = "avx2")]
-            fn avx2($($arg: $ty),*) -> $ret {
-                $kernel($($arg),*)
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx2")]
+                fn avx2($($arg: $ty),*) -> $ret {
+                    $kernel($($arg),*)
+                }
+                if is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2 (just detected).
+                    return unsafe { avx2($($arg),*) };
+                }
             }
-            if is_x86_feature_detected!("avx2") {
-                // SAFETY: the CPU has AVX2 (just detected).
-                unsafe { avx2($($arg),*) }
-            } else {
-                $kernel($($arg),*)
-            }
+            $kernel($($arg),*)
         }
     };
 }
