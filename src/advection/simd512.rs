@@ -373,19 +373,15 @@ unsafe fn stencil16(
 /// The velocity at sixteen points `g` (cell-centre grid coordinates):
 /// component `a` trilinear on its lattice at `g + ½e_a`
 /// (`FaceSampler::at`) — through [`trilinear16`] if every lane's stencil
-/// is inside every lattice (the returned mask then all ones), else through
-/// [`stencil16`] if `wrap` is given (the mask then the lanes it leaves to
-/// the scalar path, inverted), else nothing (mask zero).
+/// is inside every lattice, else through [`stencil16`], wrapped or clamped
+/// by `wrap` — and the lanes it computed (those [`stencil16`] leaves to the
+/// scalar path are not).
 ///
 /// # Safety
 /// The CPU has AVX-512F and `vel.dims` passes `simd::lattices`.
 #[inline]
 #[target_feature(enable = "avx512f")]
-unsafe fn velocity16(
-    vel: Lattices,
-    wrap: Option<Wrap>,
-    g: [__m512; 3],
-) -> ([__m512; 3], __mmask16) {
+unsafe fn velocity16(vel: Lattices, wrap: Wrap, g: [__m512; 3]) -> ([__m512; 3], __mmask16) {
     let at = |b: usize| {
         let mut p = g;
         p[b] = _mm512_add_ps(p[b], _mm512_set1_ps(0.5));
@@ -405,9 +401,6 @@ unsafe fn velocity16(
     if inside {
         return (u, 0xffff);
     }
-    let Some(wrap) = wrap else {
-        return (u, 0);
-    };
     let mut bad = 0;
     for (b, ub) in u.iter_mut().enumerate() {
         // SAFETY: as above.
@@ -443,7 +436,7 @@ unsafe fn trace16(
         Backtrace::Euler => (step(u0, dt_cells), 0xffff),
         Backtrace::Rk2 => {
             // SAFETY: as this function's.
-            let (u1, done) = unsafe { velocity16(vel, Some(wrap), step(u0, 0.5 * dt_cells)) };
+            let (u1, done) = unsafe { velocity16(vel, wrap, step(u0, 0.5 * dt_cells)) };
             (step(u1, dt_cells), done)
         }
         Backtrace::Rk3 => (c, 0),
@@ -703,7 +696,7 @@ pub(crate) unsafe fn points16(
     }
     let c: [__m512; 3] = std::array::from_fn(|a| load16(&std::array::from_fn(|l| g[l][a])));
     // SAFETY (both): as this function's.
-    let (u0, first) = unsafe { velocity16(vel, Some(wrap), c) };
+    let (u0, first) = unsafe { velocity16(vel, wrap, c) };
     let (mut p, done) = unsafe { trace16(vel, wrap, c, u0, dt_cells, backtrace) };
     let mut bad = !(first & done);
     if let Some(n) = into_box {
