@@ -270,28 +270,10 @@ pub fn advect_faces(
     let dt_cells = dt / vel.domain().cell;
     let dims: [[usize; 3]; 3] = std::array::from_fn(|a| dst.face_dims(a));
     let trace = (sampler, dt_cells, backtrace);
-    let (cells, wrap) = (vel.domain().dims, vel.kind().wrap());
-    face_sweep::<0>(
-        trace,
-        src.slice(0),
-        dst.slice_mut(0),
-        dims[0],
-        (cells, wrap),
-    );
-    face_sweep::<1>(
-        trace,
-        src.slice(1),
-        dst.slice_mut(1),
-        dims[1],
-        (cells, wrap),
-    );
-    face_sweep::<2>(
-        trace,
-        src.slice(2),
-        dst.slice_mut(2),
-        dims[2],
-        (cells, wrap),
-    );
+    let cells = (vel.domain().dims, vel.kind().wrap());
+    face_sweep::<0>(trace, src.slice(0), dst.slice_mut(0), dims[0], cells);
+    face_sweep::<1>(trace, src.slice(1), dst.slice_mut(1), dims[1], cells);
+    face_sweep::<2>(trace, src.slice(2), dst.slice_mut(2), dims[2], cells);
     dst.zero_walls();
 }
 
@@ -460,7 +442,7 @@ pub fn advect_fused(
                 trace.row(j, k, points);
                 for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
                     let out = &mut out[j * nx..(j + 1) * nx];
-                    sample_row(trace.lanes(), data, (d.dims, wrap), points, out);
+                    sample_row(trace.lanes, data, (d.dims, wrap), points, out);
                 }
             }
         },
@@ -578,11 +560,6 @@ impl<'a> RowTrace<'a> {
         for i in (0..covered.start).chain(covered.end..nx) {
             set_point(points, i, scalar(i));
         }
-    }
-
-    /// The widest kernels that apply to this velocity's grids.
-    fn lanes(&self) -> Lanes {
-        self.lanes
     }
 }
 
