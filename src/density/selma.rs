@@ -16,8 +16,8 @@
 //! plus a displacement, and the identity is not periodic: the grid stores
 //! the **displacement** `D = X − x`, which is, so interpolating across the
 //! periodic seam is exact. `B_n` is [`crate::advection::departure_point`], the
-//! backtrace of the gridded and gridless paths, eight points at a time
-//! through the gridless walk's AVX2 kernel; when the map grid is the
+//! backtrace of the gridded and gridless paths, [`NODE_GROUP`] points at a
+//! time through the gridless walk's vector kernels; when the map grid is the
 //! velocity grid its nodes are traced from the integer lattice points, and
 //! the density at the cell centres reads `X` off the nodes.
 //!
@@ -106,6 +106,10 @@ use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
 use crate::grid::{ScalarGrid, VectorGrid};
+
+/// Map nodes traced together: sixteen, the lanes of the AVX-512 walk kernel
+/// (two groups of the AVX2 kernel's eight), kept on the stack.
+const NODE_GROUP: usize = 16;
 
 /// Corrector iterations of the forward (inverse-backtrace) step of the
 /// tracked lattice, after the forward-trace predictor.
@@ -273,7 +277,7 @@ impl SelmaMap {
     }
 
     /// Eq 8.8 on the displacement: `D_n(x) = (B_n(x) − x) + D_{n−1}(B_n(x))`,
-    /// eight map nodes traced at a time ([`departure_points`]).
+    /// [`NODE_GROUP`] map nodes traced at a time ([`departure_points`]).
     fn advect(&mut self, input: &StepInput<'_>) {
         let md = *self.domain();
         let vd = *input.velocity.domain();
@@ -288,11 +292,11 @@ impl SelmaMap {
         let same = md == vd;
         let nx = md.dims[0];
         out.par_chunks_mut(slab).enumerate().for_each(|(k, out)| {
-            // Groups of eight nodes on the stack: the step allocates nothing.
-            for (g, out) in out.chunks_mut(8).enumerate() {
-                let first = 8 * g;
+            // Groups of nodes on the stack: the step allocates nothing.
+            for (g, out) in out.chunks_mut(NODE_GROUP).enumerate() {
+                let first = NODE_GROUP * g;
                 let node = |n: usize| ((first + n) % nx, (first + n) / nx);
-                let mut starts = [Vec3::ZERO; 8];
+                let mut starts = [Vec3::ZERO; NODE_GROUP];
                 for (n, s) in starts.iter_mut().enumerate().take(out.len()) {
                     let (i, j) = node(n);
                     *s = if same {
@@ -326,8 +330,8 @@ impl SelmaMap {
     /// `y' = F(y)`, the same scheme traced forward (`Δt → −Δt`: for RK2
     /// `y + Δt u(y + ½Δt u(y))`), which matches the inverse to `O(Δt³)`
     /// — one order better than `y + (y − B(y))`, so one correction leaves
-    /// a residual of the order that predictor left after two; eight nodes
-    /// traced at a time ([`departure_points`]).
+    /// a residual of the order that predictor left after two;
+    /// [`NODE_GROUP`] nodes traced at a time ([`departure_points`]).
     fn track_lattice(&mut self, input: &StepInput<'_>) {
         let vd = *input.velocity.domain();
         let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
@@ -336,10 +340,10 @@ impl SelmaMap {
             .as_vec3_mut()
             .par_chunks_mut(4096)
             .for_each(|ys| {
-                // Groups of eight nodes on the stack: nothing is allocated.
-                for ys in ys.chunks_mut(8) {
+                // Groups of nodes on the stack: nothing is allocated.
+                for ys in ys.chunks_mut(NODE_GROUP) {
                     let n = ys.len();
-                    let mut g0 = [Vec3::ZERO; 8];
+                    let mut g0 = [Vec3::ZERO; NODE_GROUP];
                     for (g0, y) in g0.iter_mut().zip(&*ys) {
                         *g0 = vd.grid_coords(*y);
                     }
