@@ -462,6 +462,7 @@ struct RowTrace<'a> {
     #[cfg(target_arch = "x86_64")]
     simd: Option<simd::Lattices<'a>>,
     lanes: Lanes,
+    #[cfg(target_arch = "x86_64")]
     wrap: Wrap,
     cells: [usize; 3],
     dt_cells: f32,
@@ -480,6 +481,7 @@ impl<'a> RowTrace<'a> {
             #[cfg(target_arch = "x86_64")]
             simd,
             lanes: Lanes::widest(simd.is_some()),
+            #[cfg(target_arch = "x86_64")]
             wrap: vel.kind().wrap(),
             cells: vel.domain().dims,
             dt_cells: dt / vel.domain().cell,

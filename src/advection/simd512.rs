@@ -513,9 +513,9 @@ fn row_points(f: [usize; 3], face: Option<usize>) -> [__m512; 3] {
 /// component `A` as `FaceSampler::at_face` finds it away from the box's
 /// faces: its own value, each other component the mean of four faces.
 ///
-/// # Panics
-/// Unless `1 ≤ i`, `i + 16 ≤ n_x − 1`, `1 ≤ j ≤ n_y − 2` and
-/// `1 ≤ k ≤ n_z − 2` (`n` the cell counts), where no face wraps.
+/// The caller keeps `1 ≤ i`, `i + 16 ≤ n_x − 1`, `1 ≤ j ≤ n_y − 2` and
+/// `1 ≤ k ≤ n_z − 2` (`n` the cell counts), where no face wraps; otherwise
+/// the values are not the faces' (or, past the lattice, it panics).
 #[inline]
 #[target_feature(enable = "avx512f")]
 fn face_velocities16<const A: usize>(vel: Lattices, f: [usize; 3]) -> [__m512; 3] {
@@ -542,9 +542,9 @@ fn face_velocities16<const A: usize>(vel: Lattices, f: [usize; 3]) -> [__m512; 3
 /// `FaceSampler::at_cell` finds it where no face wraps: per component the
 /// mean of the cell's two faces, in its order.
 ///
-/// # Panics
-/// Unless every cell's upper face is inside its lattice (`i + 16 < mx` of
-/// `u`, `j + 1 < my` of `v`, `k + 1 < mz` of `w`).
+/// The caller keeps every cell's upper face inside its lattice (`i + 16 <
+/// mx` of `u`, `j + 1 < my` of `v`, `k + 1 < mz` of `w`); otherwise the
+/// values are not the cells' (or, past the lattice, it panics).
 #[inline]
 #[target_feature(enable = "avx512f")]
 fn cell_velocities16(vel: Lattices, f: [usize; 3]) -> [__m512; 3] {
