@@ -89,7 +89,10 @@
 //! multiply fused between the forward and inverse z transforms; then the y
 //! and x inverses of a few z-slabs per task. The periodic box's pair is
 //! [`periodic_fft::PeriodicFft`] in f64 (the same type in f32 is the FFT
-//! floor of experiment P-1).
+//! floor of experiment P-1). In a periodic box the projection has no pass
+//! of its own: each task of the first pass computes the divergence of its
+//! slab before transforming it, and each task of the last subtracts the
+//! gradient of the slabs of `p` it has just made.
 
 use std::f64::consts::PI;
 use std::sync::Arc;
@@ -224,6 +227,83 @@ impl PeriodicPlan {
             dst,
             |r| S::from_f64(r * scale),
         );
+    }
+
+    /// [`PressureSolver::project`] in a periodic box, in the transform's
+    /// passes: pass 1 transforms `D u*` (f64, [`FaceGrid::divergence_slab`])
+    /// as each task makes its slab; pass 3 hands each slab of `p` (f64, into
+    /// `p`) to [`subtract_gradient_slab`] while it is in cache — all of `u`
+    /// and `v`, and `w` where the slab below is in the same block. The first
+    /// slab of each block takes its `w` afterwards, from `p`.
+    fn project(&mut self, u: &mut FaceGrid, p: &mut [f64]) {
+        let [nx, ny, nz] = self.fft.dims();
+        let slab = nx * ny;
+        self.fft.forward_slabs(|k, out| u.divergence_slab(k, out));
+        let tables = gain_tables(&self.eig, Filter::InverseLaplacian, self.dx);
+        let scale = 1.0 / (nx * ny * nz) as f64;
+        let s = 1.0 / self.dx as f64;
+        let block = SLAB_BLOCK * slab;
+        let [us, vs, ws] = u.slices_mut();
+        let blocks = p
+            .par_chunks_mut(block)
+            .zip(us.par_chunks_mut(block))
+            .zip(vs.par_chunks_mut(block))
+            .zip(ws.par_chunks_mut(block));
+        self.fft.inverse_blocks(
+            |i, col| apply_gain(col, i, nz, Filter::InverseLaplacian, &tables),
+            blocks,
+            |(((p, u), v), w), d, _, real| {
+                let (below, p) = p.split_at_mut(d * slab);
+                let p = &mut p[..slab];
+                for (o, &r) in p.iter_mut().zip(real) {
+                    *o = r * scale;
+                }
+                let below = d.checked_sub(1).map(|_| &below[(d - 1) * slab..]);
+                let [u, v, w] = [&mut **u, &mut **v, &mut **w].map(|c| &mut c[d * slab..][..slab]);
+                subtract_gradient_slab([nx, ny], s, p, below, [u, v, w]);
+            },
+        );
+        let p = &*p;
+        ws.par_chunks_mut(block).enumerate().for_each(|(b, w)| {
+            let k = b * SLAB_BLOCK;
+            let kl = (k + nz - 1) % nz;
+            let (hi, lo) = (&p[k * slab..][..slab], &p[kl * slab..][..slab]);
+            for ((o, &a), &b) in w[..slab].iter_mut().zip(hi).zip(lo) {
+                *o = (*o as f64 - s * (a - b)) as f32;
+            }
+        });
+    }
+}
+
+/// `u_a −= s (p[f] − p[f − e_a])` on one periodic z-slab ([`FaceGrid::subtract_gradient_f64`]
+/// with `s = 1/Δx`, the same operations): `u` and `v` from the slab's `p`
+/// (the lower cell wraps within the slab), `w` if the slab below, `below`,
+/// is given.
+fn subtract_gradient_slab(
+    [nx, ny]: [usize; 2],
+    s: f64,
+    p: &[f64],
+    below: Option<&[f64]>,
+    [u, v, w]: [&mut [f32]; 3],
+) {
+    let sub = |o: &mut f32, hi: f64, lo: f64| *o = (*o as f64 - s * (hi - lo)) as f32;
+    for (ur, pr) in u.chunks_exact_mut(nx).zip(p.chunks_exact(nx)) {
+        sub(&mut ur[0], pr[0], pr[nx - 1]);
+        for ((o, &hi), &lo) in ur[1..].iter_mut().zip(&pr[1..]).zip(pr) {
+            sub(o, hi, lo);
+        }
+    }
+    for j in 0..ny {
+        let jl = if j == 0 { ny - 1 } else { j - 1 };
+        let (hi, lo) = (&p[j * nx..][..nx], &p[jl * nx..][..nx]);
+        for ((o, &a), &b) in v[j * nx..][..nx].iter_mut().zip(hi).zip(lo) {
+            sub(o, a, b);
+        }
+    }
+    if let Some(below) = below {
+        for ((o, &a), &b) in w.iter_mut().zip(p).zip(below) {
+            sub(o, a, b);
+        }
     }
 }
 
@@ -493,14 +573,11 @@ impl Engine {
 pub struct PressureSolver {
     domain: Domain,
     kind: BoxKind,
-    /// `D u*` of the last projection, f64 (the transform input).
+    /// `D u*`, f64, the closed box's transform input (empty for a periodic
+    /// box, whose divergence is made slab by slab in the transform).
     rhs: Vec<f64>,
-    /// `p` of the last projection, f64 (the transform output).
+    /// `p` of the last projection (zero mean), f64.
     p64: Vec<f64>,
-    /// `D u*` of the last projection, rounded to f32.
-    divergence: ScalarGrid,
-    /// `p` of the last projection (zero mean), rounded to f32.
-    pressure: ScalarGrid,
     engine: Engine,
 }
 
@@ -511,14 +588,15 @@ impl PressureSolver {
             BoxKind::Periodic => Engine::Periodic(Box::new(PeriodicPlan::new(&domain))),
             BoxKind::Closed => Engine::Closed(Box::new(ClosedPlan::new(&domain))),
         };
-        let grid = ScalarGrid::zeros(domain).with_wrap(kind.wrap());
+        let rhs = match kind {
+            BoxKind::Periodic => vec![],
+            BoxKind::Closed => vec![0.0; domain.len()],
+        };
         Self {
             domain,
             kind,
-            rhs: vec![0.0; domain.len()],
+            rhs,
             p64: vec![0.0; domain.len()],
-            divergence: grid.clone(),
-            pressure: grid,
             engine,
         }
     }
@@ -534,34 +612,43 @@ impl PressureSolver {
     }
 
     /// The pressure `p` of the last [`PressureSolver::project`] (zeros before
-    /// the first): `L p = D u*` with zero mean. In physical units it is the
-    /// kinematic pressure impulse `p_phys Δt / ρ`.
-    pub fn pressure(&self) -> &ScalarGrid {
-        &self.pressure
-    }
-
-    /// The divergence `D u*` of the velocity handed to the last projection.
-    pub fn divergence(&self) -> &ScalarGrid {
-        &self.divergence
+    /// the first), rounded to f32 into a new grid: `L p = D u*` with zero
+    /// mean. In physical units it is the kinematic pressure impulse
+    /// `p_phys Δt / ρ`.
+    pub fn pressure(&self) -> ScalarGrid {
+        let mut p = ScalarGrid::zeros(self.domain).with_wrap(self.kind.wrap());
+        for (d, &s) in p.as_slice_mut().iter_mut().zip(&self.p64) {
+            *d = s as f32;
+        }
+        p
     }
 
     /// Make `u` exactly discretely divergence-free: solve `L p = D u*`
     /// (zero mode pinned), then `u = u* − G p`. Closed box: the wall faces are
     /// first set to zero (no flow through a wall).
     ///
+    /// Periodic box: `D u*` is made slab by slab inside the forward
+    /// transform and `G p` subtracted slab by slab inside the inverse
+    /// ([`PeriodicPlan::project`]), so neither is a pass of its own; the
+    /// values are those of [`FaceGrid::divergence_f64`] and
+    /// [`FaceGrid::subtract_gradient_f64`].
+    ///
     /// # Panics
     /// If `u` is not on the planned domain and box kind.
     pub fn project(&mut self, u: &mut FaceGrid) {
         assert_eq!(u.domain(), &self.domain, "pressure solver: another domain");
         assert_eq!(u.kind(), self.kind, "pressure solver: another box kind");
-        u.zero_walls();
-        u.divergence_f64(&mut self.rhs);
-        self.engine.forward(0, &self.rhs);
-        self.engine
-            .finish(0, Filter::InverseLaplacian, &mut self.p64);
-        u.subtract_gradient_f64(&self.p64, 1.0);
-        round_into(&self.rhs, self.divergence.as_slice_mut());
-        round_into(&self.p64, self.pressure.as_slice_mut());
+        match &mut self.engine {
+            Engine::Periodic(plan) => plan.project(u, &mut self.p64),
+            Engine::Closed(_) => {
+                u.zero_walls();
+                u.divergence_f64(&mut self.rhs);
+                self.engine.forward(0, &self.rhs);
+                self.engine
+                    .finish(0, Filter::InverseLaplacian, &mut self.p64);
+                u.subtract_gradient_f64(&self.p64, 1.0);
+            }
+        }
     }
 
     /// Solve `L p = f` for cell-centred `f` with the zero mode pinned
@@ -627,15 +714,4 @@ impl PressureSolver {
         }
         Ok(())
     }
-}
-
-/// `dst = src` rounded to f32, in parallel.
-fn round_into(src: &[f64], dst: &mut [f32]) {
-    dst.par_chunks_mut(4096)
-        .zip(src.par_chunks(4096))
-        .for_each(|(d, s)| {
-            for (d, &s) in d.iter_mut().zip(s) {
-                *d = s as f32;
-            }
-        });
 }

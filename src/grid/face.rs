@@ -462,6 +462,14 @@ impl FaceGrid {
             .expect("face arrays are in standard layout")
     }
 
+    /// The three components `[u, v, w]` as flat mutable slices at once.
+    pub fn slices_mut(&mut self) -> [&mut [f32]; 3] {
+        self.comps.each_mut().map(|c| {
+            c.as_slice_mut()
+                .expect("face arrays are in standard layout")
+        })
+    }
+
     /// Closed box: set the wall faces to zero (no flow through a wall).
     /// Periodic box: nothing to do.
     pub fn zero_walls(&mut self) {

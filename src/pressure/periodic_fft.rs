@@ -30,6 +30,11 @@ use rustfft::{Fft, FftPlanner};
 
 use super::SLAB_BLOCK;
 
+/// Rows (passes 1 and 3) or z-slabs (pass 2) taken together through a
+/// transpose, so that each write (passes 1, 2) or read (pass 3) of the
+/// transposed array covers `TILE` consecutive values, not one.
+const TILE: usize = 8;
+
 /// A planned periodic real FFT pair on `[z][y][x]` arrays of one shape, in
 /// the precision `T` (module documentation).
 #[derive(Clone)]
@@ -84,29 +89,50 @@ impl<T: FftNum> PeriodicFft<T> {
     pub fn forward<S: Copy + Sync>(&mut self, src: &[S], load: impl Fn(S) -> T + Sync) {
         let [nx, ny, nz] = self.dims;
         assert_eq!(src.len(), nx * ny * nz, "forward: lattice size");
+        self.forward_slabs(|k, slab| {
+            for (r, &v) in slab.iter_mut().zip(&src[k * nx * ny..]) {
+                *r = load(v);
+            }
+        });
+    }
+
+    /// Pass 1 with the input made where it is transformed: `fill(k, slab)`
+    /// writes z-slab `k` (`[y][x]`, `nx ny` values) into a buffer of the
+    /// task, which then transforms it along x and y — e.g. the divergence of
+    /// a velocity, never stored as a whole grid.
+    pub fn forward_slabs(&mut self, fill: impl Fn(usize, &mut [T]) + Sync) {
+        let [nx, ny, _] = self.dims;
         let nxh = self.nxh;
         let (r2c, fft_y) = (&self.r2c, &self.fft_y);
         self.slabs
             .par_chunks_mut(nxh * ny)
-            .zip(src.par_chunks(nx * ny))
+            .enumerate()
             .for_each_init(
                 || {
                     (
-                        vec![T::zero(); nx],
-                        vec![Complex::zero(); nxh],
+                        vec![T::zero(); nx * ny],
+                        vec![Complex::zero(); TILE * nxh],
                         vec![Complex::zero(); r2c.get_scratch_len()],
                         vec![Complex::zero(); fft_y.get_inplace_scratch_len()],
                     )
                 },
-                |(real, line, rs, fs), (slab, s)| {
-                    for (j, row) in s.chunks_exact(nx).enumerate() {
-                        for (r, &v) in real.iter_mut().zip(row) {
-                            *r = load(v);
+                |(real, lines, rs, fs), (k, slab)| {
+                    fill(k, real);
+                    for (t, rows) in real.chunks_mut(TILE * nx).enumerate() {
+                        for (row, line) in
+                            rows.chunks_exact_mut(nx).zip(lines.chunks_exact_mut(nxh))
+                        {
+                            r2c.process_with_scratch(row, line, rs)
+                                .expect("r2c buffer sizes are planned");
                         }
-                        r2c.process_with_scratch(real, line, rs)
-                            .expect("r2c buffer sizes are planned");
-                        for (i, &c) in line.iter().enumerate() {
-                            slab[i * ny + j] = c;
+                        // Bin i of rows j0 … j0 + n − 1: n consecutive values
+                        // of the slab's y-line i.
+                        let n = rows.len() / nx;
+                        for i in 0..nxh {
+                            let dst = &mut slab[i * ny + t * TILE..][..n];
+                            for (r, d) in dst.iter_mut().enumerate() {
+                                *d = lines[r * nxh + i];
+                            }
                         }
                     }
                     fft_y.process_with_scratch(slab, fs);
@@ -130,6 +156,34 @@ impl<T: FftNum> PeriodicFft<T> {
     ) {
         let [nx, ny, nz] = self.dims;
         assert_eq!(dst.len(), nx * ny * nz, "inverse: lattice size");
+        let blocks = dst.par_chunks_mut(SLAB_BLOCK * nx * ny);
+        self.inverse_blocks(gain, blocks, |out, d, _, slab| {
+            for (o, &r) in out[d * nx * ny..][..nx * ny].iter_mut().zip(slab) {
+                *o = store(r);
+            }
+        });
+    }
+
+    /// [`Self::inverse`] with the output taken where it is made: z-slab `k`
+    /// of the result (`[y][x]`, unnormalised) is handed to `consume(block,
+    /// d, k, slab)`, where `block` is item `k / SLAB_BLOCK` of `blocks` —
+    /// one per [`SLAB_BLOCK`] consecutive slabs, the task's own — and `d =
+    /// k mod SLAB_BLOCK`; a block's slabs come in order.
+    ///
+    /// # Panics
+    /// If `blocks` does not have `⌈nz / SLAB_BLOCK⌉` items.
+    pub fn inverse_blocks<B: Send>(
+        &mut self,
+        gain: impl Fn(usize, &mut [Complex<T>]) + Sync,
+        blocks: impl IndexedParallelIterator<Item = B>,
+        consume: impl Fn(&mut B, usize, usize, &[T]) + Sync,
+    ) {
+        let [nx, ny, nz] = self.dims;
+        assert_eq!(
+            blocks.len(),
+            nz.div_ceil(SLAB_BLOCK),
+            "inverse: one block per {SLAB_BLOCK} z-slabs"
+        );
         let nxh = self.nxh;
         let Self {
             c2r,
@@ -148,10 +202,15 @@ impl<T: FftNum> PeriodicFft<T> {
             columns.par_chunks_mut(ny * nz).enumerate().for_each_init(
                 || vec![Complex::zero(); zs],
                 |scratch, (i, col)| {
-                    for k in 0..nz {
-                        let src = &slabs[(k * nxh + i) * ny..][..ny];
-                        for (j, &c) in src.iter().enumerate() {
-                            col[j * nz + k] = c;
+                    // z-lines of x-frequency i, TILE slabs at a time: each
+                    // write covers TILE consecutive values of a line.
+                    for k0 in (0..nz).step_by(TILE) {
+                        let n = TILE.min(nz - k0);
+                        for j in 0..ny {
+                            let dst = &mut col[j * nz + k0..][..n];
+                            for (d, c) in dst.iter_mut().enumerate() {
+                                *c = slabs[((k0 + d) * nxh + i) * ny + j];
+                            }
                         }
                     }
                     fft_z.process_with_scratch(col, scratch);
@@ -164,18 +223,18 @@ impl<T: FftNum> PeriodicFft<T> {
         let even_x = nx % 2 == 0;
         slabs
             .par_chunks_mut(SLAB_BLOCK * nxh * ny)
-            .zip(dst.par_chunks_mut(SLAB_BLOCK * nx * ny))
+            .zip(blocks)
             .enumerate()
             .for_each_init(
                 || {
                     (
-                        vec![T::zero(); nx],
-                        vec![Complex::zero(); nxh],
+                        vec![T::zero(); nx * ny],
+                        vec![Complex::zero(); TILE * nxh],
                         vec![Complex::zero(); c2r.get_scratch_len()],
                         vec![Complex::zero(); ifft_y.get_inplace_scratch_len()],
                     )
                 },
-                |(real, line, rs, fs), (block, (slabs, out))| {
+                |(real, lines, rs, fs), (block, (slabs, mut out))| {
                     let k0 = block * SLAB_BLOCK;
                     let depth = slabs.len() / (nxh * ny);
                     for (n, col) in cols.chunks_exact(nz).enumerate() {
@@ -183,27 +242,33 @@ impl<T: FftNum> PeriodicFft<T> {
                             slabs[d * nxh * ny + n] = c;
                         }
                     }
-                    for (slab, out) in slabs
-                        .chunks_exact_mut(nxh * ny)
-                        .zip(out.chunks_exact_mut(nx * ny))
-                    {
+                    for (d, slab) in slabs.chunks_exact_mut(nxh * ny).enumerate() {
                         ifft_y.process_with_scratch(slab, fs);
-                        for (j, row) in out.chunks_exact_mut(nx).enumerate() {
-                            for (i, l) in line.iter_mut().enumerate() {
-                                *l = slab[i * ny + j];
+                        for (t, rows) in real.chunks_mut(TILE * nx).enumerate() {
+                            // Rows j0 … j0 + n − 1 gather n consecutive values
+                            // of each y-line i.
+                            let n = rows.len() / nx;
+                            for i in 0..nxh {
+                                let src = &slab[i * ny + t * TILE..][..n];
+                                for (r, &c) in src.iter().enumerate() {
+                                    lines[r * nxh + i] = c;
+                                }
                             }
-                            // A real signal has real DC and (even nx) Nyquist
-                            // bins: drop the round-off imaginary parts.
-                            line[0].im = T::zero();
-                            if even_x {
-                                line[nxh - 1].im = T::zero();
-                            }
-                            c2r.process_with_scratch(line, real, rs)
-                                .expect("c2r buffer sizes are planned");
-                            for (o, &r) in row.iter_mut().zip(real.iter()) {
-                                *o = store(r);
+                            for (row, line) in
+                                rows.chunks_exact_mut(nx).zip(lines.chunks_exact_mut(nxh))
+                            {
+                                // A real signal has real DC and (even nx)
+                                // Nyquist bins: drop the round-off imaginary
+                                // parts.
+                                line[0].im = T::zero();
+                                if even_x {
+                                    line[nxh - 1].im = T::zero();
+                                }
+                                c2r.process_with_scratch(line, row, rs)
+                                    .expect("c2r buffer sizes are planned");
                             }
                         }
+                        consume(&mut out, d, k0 + d, real);
                     }
                 },
             );
