@@ -13,7 +13,7 @@
 //! axes back in reverse order, unnormalised, so the pair returns its input
 //! times `N_x N_y N_z` under a unit gain.
 //!
-//! Plans and both spectrum buffers are made once ([`PeriodicFft::new`]).
+//! Plans and the spectrum buffer are made once ([`PeriodicFft::new`]).
 //! The pair runs in three parallel passes (rayon): x and y lines of one
 //! z-slab per task ([`PeriodicFft::forward`]); then z lines of one
 //! x-frequency per task with the gain applied between the forward and the
@@ -22,6 +22,7 @@
 
 use std::sync::Arc;
 
+use ndarray::{ArrayViewMut3, Axis};
 use rayon::prelude::*;
 use realfft::num_complex::Complex;
 use realfft::num_traits::Zero;
@@ -48,10 +49,9 @@ pub struct PeriodicFft<T: FftNum> {
     ifft_y: Arc<dyn Fft<T>>,
     fft_z: Arc<dyn Fft<T>>,
     ifft_z: Arc<dyn Fft<T>>,
-    /// Spectra after the x and y passes, layout `[z][kx][ky]`.
+    /// The spectra, layout `[z][kx][ky]`: transformed along x and y by
+    /// pass 1, along z (there and back) in place by pass 2.
     slabs: Vec<Complex<T>>,
-    /// Full spectra, layout `[kx][ky][kz]`.
-    columns: Vec<Complex<T>>,
 }
 
 impl<T: FftNum> PeriodicFft<T> {
@@ -72,7 +72,6 @@ impl<T: FftNum> PeriodicFft<T> {
             fft_z: complex.plan_fft_forward(nz),
             ifft_z: complex.plan_fft_inverse(nz),
             slabs: vec![Complex::zero(); len],
-            columns: vec![Complex::zero(); len],
         }
     }
 
@@ -191,35 +190,48 @@ impl<T: FftNum> PeriodicFft<T> {
             fft_z,
             ifft_z,
             slabs,
-            columns,
             ..
         } = self;
         let zs = fft_z
             .get_inplace_scratch_len()
             .max(ifft_z.get_inplace_scratch_len());
-        {
-            let slabs = &*slabs;
-            columns.par_chunks_mut(ny * nz).enumerate().for_each_init(
-                || vec![Complex::zero(); zs],
-                |scratch, (i, col)| {
-                    // z-lines of x-frequency i, TILE slabs at a time: each
-                    // write covers TILE consecutive values of a line.
+        // Pass 2: the z-lines of x-frequency i, `[z][ky]` inside the slabs,
+        // gathered into one task's column (`[ky][kz]`) and put back.
+        ArrayViewMut3::from_shape((nz, nxh, ny), &mut slabs[..])
+            .expect("the spectra have nz × nxh × ny bins")
+            .axis_iter_mut(Axis(1))
+            .into_par_iter()
+            .enumerate()
+            .for_each_init(
+                || (vec![Complex::zero(); ny * nz], vec![Complex::zero(); zs]),
+                |(col, scratch), (i, mut lines)| {
+                    // TILE z-rows at a time, so that each write covers TILE
+                    // consecutive values of a z-line (one value per write
+                    // puts every line, 2^n bins apart, in the same few L1
+                    // sets).
                     for k0 in (0..nz).step_by(TILE) {
                         let n = TILE.min(nz - k0);
+                        let rows: [&[Complex<T>]; TILE] = std::array::from_fn(|d| {
+                            let row = lines.row(k0 + d.min(n - 1));
+                            row.to_slice().expect("ky is contiguous")
+                        });
                         for j in 0..ny {
                             let dst = &mut col[j * nz + k0..][..n];
-                            for (d, c) in dst.iter_mut().enumerate() {
-                                *c = slabs[((k0 + d) * nxh + i) * ny + j];
+                            for (c, row) in dst.iter_mut().zip(&rows) {
+                                *c = row[j];
                             }
                         }
                     }
                     fft_z.process_with_scratch(col, scratch);
                     gain(i, col);
                     ifft_z.process_with_scratch(col, scratch);
+                    for (k, mut row) in lines.outer_iter_mut().enumerate() {
+                        for (j, c) in row.iter_mut().enumerate() {
+                            *c = col[j * nz + k];
+                        }
+                    }
                 },
             );
-        }
-        let cols = &*columns;
         let even_x = nx % 2 == 0;
         slabs
             .par_chunks_mut(SLAB_BLOCK * nxh * ny)
@@ -236,12 +248,6 @@ impl<T: FftNum> PeriodicFft<T> {
                 },
                 |(real, lines, rs, fs), (block, (slabs, mut out))| {
                     let k0 = block * SLAB_BLOCK;
-                    let depth = slabs.len() / (nxh * ny);
-                    for (n, col) in cols.chunks_exact(nz).enumerate() {
-                        for (d, &c) in col[k0..k0 + depth].iter().enumerate() {
-                            slabs[d * nxh * ny + n] = c;
-                        }
-                    }
                     for (d, slab) in slabs.chunks_exact_mut(nxh * ny).enumerate() {
                         ifft_y.process_with_scratch(slab, fs);
                         for (t, rows) in real.chunks_mut(TILE * nx).enumerate() {
