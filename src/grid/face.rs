@@ -647,8 +647,7 @@ impl FaceGrid {
             );
             let o = &mut slab[j * nx..(j + 1) * nx];
             let d = |u0: f32, u1: f32, v0: f32, v1: f32, w0: f32, w1: f32| {
-                let d = (u1 as f64 - u0 as f64) + (v1 as f64 - v0 as f64) + (w1 as f64 - w0 as f64);
-                T::from_f64(d * inv)
+                T::from_f64(compact_divergence([u0, u1], [v0, v1], [w0, w1], inv))
             };
             // Every cell but the last reads its upper x-face at i + 1 (a
             // branch-free loop); the last reads face nx, or face 0 wrapped.
@@ -782,6 +781,15 @@ impl FaceGrid {
     pub fn is_finite(&self) -> bool {
         (0..3).all(|a| self.slice(a).par_iter().all(|v| v.is_finite()))
     }
+}
+
+/// The compact divergence of one cell from its faces' values `[lower,
+/// upper]` on each axis and `inv = 1/Δx`:
+/// `((u1 − u0) + (v1 − v0) + (w1 − w0)) / Δx` in f64, where the
+/// differences of f32 values are exact ([`FaceGrid::divergence`]).
+#[inline(always)]
+pub(crate) fn compact_divergence(u: [f32; 2], v: [f32; 2], w: [f32; 2], inv: f64) -> f64 {
+    ((u[1] as f64 - u[0] as f64) + (v[1] as f64 - v[0] as f64) + (w[1] as f64 - w[0] as f64)) * inv
 }
 
 /// f32 or f64 cell data for the operators (arithmetic is done in f64).

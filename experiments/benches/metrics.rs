@@ -1,0 +1,78 @@
+//! The measures taken after every step (`run::StepMeasures::take`, issue 16
+//! item 1: ≤ 5 % of a 128³ step) and each of its three parts —
+//! `velocity_stats`, the interpolant's divergence at the probe points, the
+//! gases' `mirror_error` — on the 128³ hot/cold state, in the global rayon
+//! pool. `warm/…` repeats each on cached data; `cold/…` first writes a
+//! 64 MB buffer (untimed, as experiment P-1's bandwidth pass runs before
+//! its measures), so the grids come from memory.
+//!
+//! Run: `cargo bench -p smokelab-app --bench metrics` (about a minute).
+
+use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
+use rayon::prelude::*;
+use smokelab::metrics;
+use smokelab::scenario::hot_cold::HotColdConfig;
+use smokelab::scenario::{Scenario, SolverConfig};
+use smokelab::simulation::Simulation;
+use smokelab_app::run::{StepMeasures, PROBE_POINTS};
+use std::hint::black_box;
+
+/// The hot/cold simulation at `res`³, stepped until the gases move.
+fn warmed(res: usize) -> Simulation {
+    let config = HotColdConfig {
+        solver: SolverConfig {
+            res,
+            ..SolverConfig::default()
+        },
+        ..Default::default()
+    };
+    let mut sim = config.build().expect("valid config");
+    for _ in 0..40 {
+        sim.step();
+    }
+    sim
+}
+
+/// Bytes written before each cold measure: twice the L3 cache.
+const FLUSH_BYTES: usize = 64 << 20;
+
+fn benches(c: &mut Criterion) {
+    let sim = warmed(128);
+    let points = metrics::probe_points(sim.domain(), PROBE_POINTS, 1);
+    let (a, b) = (sim.gases[0].density(), sim.gases[1].density());
+    let parts: [(&str, &(dyn Fn() + Sync)); 4] = [
+        ("take", &|| {
+            black_box(StepMeasures::take(&sim, &points));
+        }),
+        ("velocity_stats", &|| {
+            black_box(metrics::velocity_stats(&sim.velocity));
+        }),
+        ("probe", &|| {
+            black_box(metrics::face_interpolant_divergence(&sim.velocity, &points));
+        }),
+        ("gas_mirror", &|| {
+            black_box(metrics::mirror_error(a, b));
+        }),
+    ];
+    let mut g = c.benchmark_group("measures_128");
+    g.sample_size(20);
+    let mut flush = vec![0.0f32; FLUSH_BYTES / 4];
+    for (name, f) in parts {
+        g.bench_function(format!("warm/{name}"), |bench| bench.iter(f));
+        g.bench_function(format!("cold/{name}"), |bench| {
+            bench.iter_batched(
+                || {
+                    flush
+                        .par_chunks_mut(1 << 16)
+                        .for_each(|c| c.iter_mut().for_each(|v| *v += 1.0));
+                },
+                |()| f(),
+                BatchSize::PerIteration,
+            )
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(measures, benches);
+criterion_main!(measures);
