@@ -882,8 +882,8 @@ fn inject_slab(md: &Domain, ys: &[Vec3], dt: f32, mut gases: [Option<(&Scalar, &
         sub_points(md, ys, points);
         for (source, r) in gases.iter_mut().flatten() {
             source.eval_batch(points, values);
-            for (r, v) in r[c * CHUNK..].iter_mut().zip(values.chunks_exact(8)) {
-                *r += dt * (v.iter().sum::<f32>() * 0.125);
+            for (m, r) in r[c * CHUNK..][..ys.len()].iter_mut().enumerate() {
+                *r += dt * (sub_sum(values, m) * 0.125);
             }
         }
     }
@@ -958,8 +958,8 @@ fn reanchor_slab(
         map.map_batch(points, xi);
         for (field, out) in gases.iter_mut().flatten() {
             field.at_reference(xi, values);
-            for (o, v) in out[first..].iter_mut().zip(values.chunks_exact(8)) {
-                *o = v.iter().sum::<f32>() * 0.125;
+            for (m, o) in out[first..][..len].iter_mut().enumerate() {
+                *o = sub_sum(values, m) * 0.125;
             }
         }
     }
@@ -991,24 +991,32 @@ pub struct MapState {
 }
 
 /// The 2×2×2 sub-points of a map cell around each of `centres`, wrapped
-/// into the box, eight per centre.
+/// into the box, eight per centre, offset by offset: sub-point `s` of
+/// centre `m` at `out[s·n + m]` (`n` centres), so that a run of sixteen
+/// lanes holds one offset of consecutive centres — points of one lattice
+/// row, which the sampling kernels fetch by a row window.
 fn sub_points(md: &Domain, centres: &[Vec3], out: &mut [Vec3]) {
+    let n = centres.len();
+    assert_eq!(out.len(), 8 * n, "sub_points: eight per centre");
     let into_box = BoxWrap::new(md);
     let offsets = SUB.map(|s| s * md.cell);
     let (low, high) = (offsets[0], offsets[7]);
-    for (&c, out) in centres.iter().zip(out.chunks_exact_mut(8)) {
+    for (m, &c) in centres.iter().enumerate() {
         // Every sub-point's coordinates are the lowest's or the highest's:
         // when those two are inside the box, all eight are.
-        if into_box.inside(c + low) && into_box.inside(c + high) {
-            for (o, s) in out.iter_mut().zip(offsets) {
-                *o = c + s;
-            }
-        } else {
-            for (o, s) in out.iter_mut().zip(offsets) {
-                *o = into_box.wrap(c + s);
-            }
+        let inside = into_box.inside(c + low) && into_box.inside(c + high);
+        for (s, &o) in offsets.iter().enumerate() {
+            out[s * n + m] = if inside { c + o } else { into_box.wrap(c + o) };
         }
     }
+}
+
+/// The sum of centre `m`'s eight sub-point values, laid out as
+/// [`sub_points`] lays out the points, in the offsets' order.
+#[inline(always)]
+fn sub_sum(values: &[f32], m: usize) -> f32 {
+    let n = values.len() / 8;
+    (0..8).map(|s| values[s * n + m]).sum::<f32>()
 }
 
 /// The periodic image of the offset `d` nearest zero, `d − L·round(d/L)`
