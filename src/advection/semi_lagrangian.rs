@@ -740,8 +740,8 @@ pub(crate) fn sample_points(
             }
         }
     }
-    for i in covered.end..n {
-        out[i] = scalar(i);
+    for (i, o) in out.iter_mut().enumerate().skip(covered.end) {
+        *o = scalar(i);
     }
 }
 
