@@ -689,3 +689,121 @@ fn set_point(points: &mut [Vec<f32>; 3], i: usize, g: Vec3) {
         lane[i] = v;
     }
 }
+
+/// `data` (a cell-centred grid of `cells`, `wrap`ped) interpolated at the
+/// points `g` (grid coordinates, `[x, y, z]` lanes) into `out`:
+/// [`Stencil`]'s trilinear, sixteen points at a time through
+/// [`simd512::sample16`] (the last group overlapping its predecessor) or
+/// eight through [`simd::sample8`] where the CPU has them, the rest and the
+/// lanes the kernels leave one by one — the same bits either way.
+///
+/// # Panics
+/// If a lane's length differs from `out`'s, or `data` is shorter than `cells`.
+pub(crate) fn sample_points(
+    data: &[f32],
+    (cells, wrap): ([usize; 3], Wrap),
+    g: [&[f32]; 3],
+    out: &mut [f32],
+) {
+    let n = out.len();
+    assert!(
+        g.iter().all(|lane| lane.len() == n),
+        "sample_points: lane lengths differ"
+    );
+    assert!(
+        data.len() >= cells.iter().product::<usize>(),
+        "sample_points: data shorter than the grid"
+    );
+    let scalar =
+        |i: usize| Stencil::new(Vec3::new(g[0][i], g[1][i], g[2][i]), cells, wrap).apply(data);
+    let mut covered = 0..0;
+    #[cfg(target_arch = "x86_64")]
+    {
+        let lanes = Lanes::widest(simd::fits(cells));
+        let width = if lanes == Lanes::Sixteen { 16 } else { 8 };
+        if lanes != Lanes::One && n >= width {
+            covered = 0..n;
+        }
+        for i in group_starts(covered.clone(), width) {
+            let at = [&g[0][i..], &g[1][i..], &g[2][i..]];
+            if lanes == Lanes::Sixteen {
+                // SAFETY: AVX-512F and a grid that fits (`Lanes::widest`).
+                let left = unsafe { simd512::sample16(data, (cells, wrap), at, &mut out[i..]) };
+                for l in lanes_in(left) {
+                    out[i + l] = scalar(i + l);
+                }
+            // SAFETY: AVX2 and a grid that fits (`Lanes::widest`).
+            } else if !unsafe { simd::sample8(data, cells, at, &mut out[i..]) } {
+                for (l, o) in out[i..i + 8].iter_mut().enumerate() {
+                    *o = scalar(i + l);
+                }
+            }
+        }
+    }
+    for (i, o) in out.iter_mut().enumerate().skip(covered.end) {
+        *o = scalar(i);
+    }
+}
+
+/// Eq 8.8 at the cell centres of `vel`'s grid for a backward map held as its
+/// displacement `D = X − x` (three cell-centred components `src`):
+/// `dst_a(x) = (x_d − x)_a · scale + src_a(x_d)`, with `x_d` the departure
+/// point of the centre `x` (grid coordinates; `scale` the map's cell size
+/// for world units), moved by `stop` first when given (obstacles). The cell
+/// sweep of [`advect_fused`]: each row's departure points traced once
+/// ([`RowTrace`]) and the three components sampled through them
+/// ([`sample_row`]) — the same bits as [`departure_point`] and
+/// [`Stencil`] point by point.
+///
+/// # Panics
+/// If a component is on another domain than `vel`.
+pub(crate) fn advect_map(
+    vel: &FaceGrid,
+    (dt, backtrace): (f32, Backtrace),
+    src: [&ScalarGrid; 3],
+    dst: [&mut ScalarGrid; 3],
+    scale: f32,
+    stop: Option<&(dyn Fn(Vec3) -> Vec3 + Sync)>,
+) {
+    let d = *vel.domain();
+    for g in src
+        .iter()
+        .map(|g| g.domain())
+        .chain(dst.iter().map(|g| g.domain()))
+    {
+        assert_eq!(g, &d, "advect_map: component on another domain");
+    }
+    let [nx, ny, _] = d.dims;
+    let slab = nx * ny;
+    let src = src.map(|g| (g.as_slice(), g.wrap()));
+    let [dx, dy, dz] = dst;
+    let trace = RowTrace::new(vel, dt, backtrace);
+    (dx.as_slice_mut().par_chunks_mut(slab))
+        .zip(dy.as_slice_mut().par_chunks_mut(slab))
+        .zip(dz.as_slice_mut().par_chunks_mut(slab))
+        .enumerate()
+        .for_each_init(
+            || [vec![0.0f32; nx], vec![0.0f32; nx], vec![0.0f32; nx]],
+            |points, (k, ((ox, oy), oz))| {
+                for j in 0..ny {
+                    trace.row(j, k, points);
+                    if let Some(stop) = stop {
+                        for i in 0..nx {
+                            let p = stop(point(points, i));
+                            set_point(points, i, p);
+                        }
+                    }
+                    let row = j * nx..(j + 1) * nx;
+                    let outs = [&mut ox[row.clone()], &mut oy[row.clone()], &mut oz[row]];
+                    for (a, (&(data, wrap), out)) in src.iter().zip(outs).enumerate() {
+                        sample_row(trace.lanes, data, (d.dims, wrap), points, out);
+                        let c = [0.0, j as f32, k as f32][a];
+                        for (i, (o, &p)) in out.iter_mut().zip(&points[a]).enumerate() {
+                            let c = if a == 0 { i as f32 } else { c };
+                            *o += (p - c) * scale;
+                        }
+                    }
+                }
+            },
+        );
+}

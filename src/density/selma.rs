@@ -15,11 +15,18 @@
 //! velocity grid's, finer for the notes' SELMA^fine. `X` is the identity
 //! plus a displacement, and the identity is not periodic: the grid stores
 //! the **displacement** `D = X − x`, which is, so interpolating across the
-//! periodic seam is exact. `B_n` is [`crate::advection::departure_point`], the
-//! backtrace of the gridded and gridless paths, [`NODE_GROUP`] points at a
-//! time through the gridless walk's vector kernels; when the map grid is the
-//! velocity grid its nodes are traced from the integer lattice points, and
-//! the density at the cell centres reads `X` off the nodes.
+//! periodic seam is exact. It is held one grid per component, the layout the
+//! sweep kernels sample. `B_n` is [`crate::advection::departure_point`], the
+//! backtrace of the gridded and gridless paths. When the map grid is the
+//! velocity grid its nodes are the cell centres, and eq 8.8 is the gridded
+//! path's cell sweep of three densities plus the trace's offset
+//! ([`crate::advection::semi_lagrangian::advect_map`]: rows traced and sampled
+//! through the vector kernels); the density at the cell centres reads `X`
+//! off the nodes. A finer map grid traces its nodes [`NODE_GROUP`] points at
+//! a time through the gridless walk's vector kernels. `D` and `R` are read
+//! at arbitrary points through the sweeps' sampling kernels too
+//! ([`crate::advection::semi_lagrangian::sample_points`]), in chunks on the
+//! stack.
 //!
 //! # One map for all gases
 //!
@@ -102,6 +109,7 @@ use rayon::prelude::*;
 
 use super::{wrap_world, Buffer, StepInput};
 use crate::advection::departure_points;
+use crate::advection::semi_lagrangian::{advect_map, sample_points};
 use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
@@ -132,13 +140,90 @@ const SUB: [Vec3; 8] = [
     Vec3::new(0.25, 0.25, 0.25),
 ];
 
+/// The map's displacement `D = X − x` on the map lattice, world units, one
+/// cell-centred grid per component.
+#[derive(Clone)]
+struct Displacement([ScalarGrid; 3]);
+
+impl Displacement {
+    /// `D = 0`: the identity map.
+    fn zeros(md: Domain) -> Self {
+        Self(std::array::from_fn(|_| ScalarGrid::zeros(md)))
+    }
+
+    fn domain(&self) -> &Domain {
+        self.0[0].domain()
+    }
+
+    /// `D` at the grid coordinates `g` (x, y, z lanes) into `out`
+    /// (component lanes), through [`sample_points`].
+    fn sample(&self, g: [&[f32]; 3], out: [&mut [f32]; 3]) {
+        for (c, out) in self.0.iter().zip(out) {
+            sample_points(c.as_slice(), (c.domain().dims, c.wrap()), g, out);
+        }
+    }
+
+    /// Every component's samples.
+    fn slices(&self) -> [&[f32]; 3] {
+        self.0.each_ref().map(|c| c.as_slice())
+    }
+
+    /// As one interleaved grid (a checkpoint's [`MapState::disp`]).
+    fn to_vector(&self) -> VectorGrid {
+        let mut v = VectorGrid::zeros(*self.domain());
+        let [dx, dy, dz] = self.slices();
+        for (n, o) in v.as_vec3_mut().iter_mut().enumerate() {
+            *o = Vec3::new(dx[n], dy[n], dz[n]);
+        }
+        v
+    }
+
+    /// From one interleaved grid.
+    fn from_vector(v: &VectorGrid) -> Self {
+        let mut d = Self::zeros(*v.domain());
+        for (n, x) in v.as_vec3().iter().enumerate() {
+            for (c, x) in d.0.iter_mut().zip(x.to_array()) {
+                c.as_slice_mut()[n] = x;
+            }
+        }
+        d
+    }
+}
+
+/// Grid coordinates on `d` of `points` (at most `8·CHUNK`), as x, y, z
+/// lanes in `buf`: [`Domain::grid_coords`]'s operations, one lane at a
+/// time so that the divisions run in vector registers (the same bits).
+fn grid_lanes<'a>(
+    d: &Domain,
+    points: &[Vec3],
+    buf: &'a mut [[f32; 8 * CHUNK]; 3],
+) -> [&'a [f32]; 3] {
+    let [gx, gy, gz] = lanes(buf, points.len());
+    for (a, lane) in [&mut *gx, &mut *gy, &mut *gz].into_iter().enumerate() {
+        for (g, p) in lane.iter_mut().zip(points) {
+            *g = p[a];
+        }
+        let (o, h) = (d.origin[a], d.cell);
+        for g in lane.iter_mut() {
+            *g = (*g - o) / h - 0.5;
+        }
+    }
+    [gx, gy, gz]
+}
+
+/// Three lanes of `8·CHUNK` floats on the stack, cut to `n`.
+fn lanes(buf: &mut [[f32; 8 * CHUNK]; 3], n: usize) -> [&mut [f32]; 3] {
+    let [x, y, z] = buf;
+    [&mut x[..n], &mut y[..n], &mut z[..n]]
+}
+
 /// The SELMA density as a field, `ρ(x) = ρ₀(X(x)) + R(X(x))` with
 /// `X(x) = x + D(x)`. Cloning shares the grids (copy-on-write in the model),
 /// so a clone is an immutable snapshot.
 #[derive(Clone)]
 pub struct SelmaField {
     /// `D = X − x` on the map lattice, world units.
-    disp: Arc<VectorGrid>,
+    disp: Arc<Displacement>,
     /// `R(ξ)`: the density in reference coordinates.
     reference: Arc<ScalarGrid>,
     /// `ρ₀`, composed analytically until the first re-anchoring.
@@ -153,8 +238,15 @@ impl BackwardMap for SelmaField {
     fn map_batch(&self, points: &[Vec3], out: &mut [Vec3]) {
         assert_eq!(points.len(), out.len(), "map_batch: slice lengths differ");
         let md = self.disp.domain();
-        for (x, &p) in out.iter_mut().zip(points) {
-            *x = wrap_world(md, p + self.disp.sample_grid_coords(md.grid_coords(p)));
+        let into_box = BoxWrap::new(md);
+        let (mut g, mut d) = ([[0.0; 8 * CHUNK]; 3], [[0.0; 8 * CHUNK]; 3]);
+        for (points, out) in points.chunks(8 * CHUNK).zip(out.chunks_mut(8 * CHUNK)) {
+            let n = points.len();
+            self.disp
+                .sample(grid_lanes(md, points, &mut g), lanes(&mut d, n));
+            for (m, (x, &p)) in out.iter_mut().zip(points).enumerate() {
+                *x = into_box.wrap(p + Vec3::new(d[0][m], d[1][m], d[2][m]));
+            }
         }
     }
 }
@@ -186,9 +278,16 @@ impl SelmaField {
         }
     }
 
-    /// `ρ₀(ξ) + R(ξ)` at reference points `xi`.
+    /// `ρ₀(ξ) + R(ξ)` at reference points `xi`; `R` through
+    /// [`sample_points`], the bits of its point query.
     fn at_reference(&self, xi: &[Vec3], out: &mut [f32]) {
-        self.reference.eval_batch(xi, out);
+        assert_eq!(xi.len(), out.len(), "at_reference: slice lengths differ");
+        let r = &*self.reference;
+        let mut g = [[0.0; 8 * CHUNK]; 3];
+        for (xi, out) in xi.chunks(8 * CHUNK).zip(out.chunks_mut(8 * CHUNK)) {
+            let g = grid_lanes(r.domain(), xi, &mut g);
+            sample_points(r.as_slice(), (r.domain().dims, r.wrap()), g, out);
+        }
         if let Some(initial) = &self.initial {
             let mut r0 = [0.0; 8 * CHUNK];
             for (xi, out) in xi.chunks(8 * CHUNK).zip(out.chunks_mut(8 * CHUNK)) {
@@ -221,10 +320,10 @@ impl SelmaField {
 pub struct SelmaMap {
     /// `D = X − x` on the map lattice, world units; each sharing gas's
     /// field holds a clone of this `Arc`.
-    disp: Arc<VectorGrid>,
+    disp: Arc<Displacement>,
     /// The previous `D`, overwritten by the next step (unshared then, so
     /// nothing is copied; a live snapshot makes the step allocate instead).
-    spare: Arc<VectorGrid>,
+    spare: Arc<Displacement>,
     /// World positions `Y(ξ)` of the reference lattice nodes, wrapped.
     lattice: VectorGrid,
     /// Re-anchoring threshold in map cells (0: never).
@@ -239,8 +338,8 @@ impl SelmaMap {
         let mut lattice = VectorGrid::zeros(map);
         reset_lattice(&mut lattice);
         Self {
-            disp: Arc::new(VectorGrid::zeros(map)),
-            spare: Arc::new(VectorGrid::zeros(map)),
+            disp: Arc::new(Displacement::zeros(map)),
+            spare: Arc::new(Displacement::zeros(map)),
             lattice,
             remap,
             walls,
@@ -263,64 +362,70 @@ impl SelmaMap {
         walls
             && self.remap.to_bits() == other.remap.to_bits()
             && self.domain() == other.domain()
-            && bits(self.disp.as_slice(), other.disp.as_slice())
+            && (self.disp.slices().iter().zip(other.disp.slices())).all(|(a, b)| bits(a, b))
             && bits(self.lattice.as_slice(), other.lattice.as_slice())
     }
 
     /// The grid the next `D` is written to: the spare, or a fresh one when
     /// a snapshot still holds it.
-    fn spare_mut(&mut self) -> &mut VectorGrid {
+    fn spare_mut(&mut self) -> &mut Displacement {
         if Arc::get_mut(&mut self.spare).is_none() {
-            self.spare = Arc::new(VectorGrid::zeros(*self.domain()));
+            self.spare = Arc::new(Displacement::zeros(*self.domain()));
         }
         Arc::get_mut(&mut self.spare).expect("a fresh grid is unshared")
     }
 
-    /// Eq 8.8 on the displacement: `D_n(x) = (B_n(x) − x) + D_{n−1}(B_n(x))`,
-    /// [`NODE_GROUP`] map nodes traced at a time ([`departure_points`]).
+    /// Eq 8.8 on the displacement: `D_n(x) = (B_n(x) − x) + D_{n−1}(B_n(x))`.
+    /// On the velocity grid the cell sweep [`advect_map`]; on a finer map
+    /// grid [`NODE_GROUP`] nodes traced at a time ([`departure_points`]).
     fn advect(&mut self, input: &StepInput<'_>) {
         let md = *self.domain();
         let vd = *input.velocity.domain();
         let old = Arc::clone(&self.disp);
         let walls = self.walls.clone();
         let walls = walls.as_deref();
-        let slab = md.dims[0] * md.dims[1];
-        let out = self.spare_mut().as_vec3_mut();
         let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
-        // Map nodes on the velocity grid are its cell centres: trace from
-        // the integer lattice points, exactly as the gridded path does.
-        let same = md == vd;
-        let nx = md.dims[0];
-        out.par_chunks_mut(slab).enumerate().for_each(|(k, out)| {
-            // Groups of nodes on the stack: the step allocates nothing.
-            for (g, out) in out.chunks_mut(NODE_GROUP).enumerate() {
-                let first = NODE_GROUP * g;
-                let node = |n: usize| ((first + n) % nx, (first + n) / nx);
-                let mut starts = [Vec3::ZERO; NODE_GROUP];
-                for (n, s) in starts.iter_mut().enumerate().take(out.len()) {
-                    let (i, j) = node(n);
-                    *s = if same {
-                        // Exact integers (`grid_coords` of a centre may round).
-                        Vec3::new(i as f32, j as f32, k as f32)
-                    } else {
-                        vd.grid_coords(md.cell_center(i, j, k))
-                    };
-                }
-                let mut deps = starts;
-                departure_points(u, &mut deps[..out.len()], dt_cells, bt);
-                for (n, ((o, &dep), &c)) in out.iter_mut().zip(&deps).zip(&starts).enumerate() {
-                    let dep = walls.map_or(dep, |w| w.stop(dep));
-                    *o = if same {
-                        (dep - c) * md.cell + old.sample_grid_coords(dep)
-                    } else {
-                        let (i, j) = node(n);
-                        let p = md.cell_center(i, j, k);
-                        let d = vd.world_of(dep);
-                        (d - p) + old.sample_grid_coords(md.grid_coords(d))
-                    };
-                }
-            }
-        });
+        let out = self.spare_mut();
+        if md == vd {
+            let stop = walls.map(|w| move |g| w.stop(g));
+            let stop = stop.as_ref().map(|f| f as &(dyn Fn(Vec3) -> Vec3 + Sync));
+            let [ox, oy, oz] = &mut out.0;
+            let src = old.0.each_ref();
+            advect_map(u, (input.dt, bt), src, [ox, oy, oz], md.cell, stop);
+        } else {
+            let slab = md.dims[0] * md.dims[1];
+            let nx = md.dims[0];
+            let (old, wrap) = (old.slices(), old.0[0].wrap());
+            // `D` at grid coordinates: one stencil applied to each component
+            // (the bits of an interleaved grid's trilinear).
+            let old_at = |g| {
+                let s = crate::grid::Stencil::new(g, md.dims, wrap);
+                Vec3::from_array(old.map(|c| s.apply(c)))
+            };
+            let [ox, oy, oz] = &mut out.0;
+            (ox.as_slice_mut().par_chunks_mut(slab))
+                .zip(oy.as_slice_mut().par_chunks_mut(slab))
+                .zip(oz.as_slice_mut().par_chunks_mut(slab))
+                .enumerate()
+                .for_each(|(k, ((ox, oy), oz))| {
+                    // Groups of nodes on the stack: the step allocates nothing.
+                    for first in (0..slab).step_by(NODE_GROUP) {
+                        let len = NODE_GROUP.min(slab - first);
+                        let node = |n: usize| md.cell_center((first + n) % nx, (first + n) / nx, k);
+                        let mut deps = [Vec3::ZERO; NODE_GROUP];
+                        for (n, s) in deps.iter_mut().enumerate().take(len) {
+                            *s = vd.grid_coords(node(n));
+                        }
+                        departure_points(u, &mut deps[..len], dt_cells, bt);
+                        for (n, &dep) in deps.iter().enumerate().take(len) {
+                            let dep = walls.map_or(dep, |w| w.stop(dep));
+                            let d = vd.world_of(dep);
+                            let o = (d - node(n)) + old_at(md.grid_coords(d));
+                            (ox[first + n], oy[first + n], oz[first + n]) = (o.x, o.y, o.z);
+                        }
+                    }
+                });
+        }
         drop(old);
         std::mem::swap(&mut self.disp, &mut self.spare);
     }
@@ -332,35 +437,93 @@ impl SelmaMap {
     /// — one order better than `y + (y − B(y))`, so one correction leaves
     /// a residual of the order that predictor left after two;
     /// [`NODE_GROUP`] nodes traced at a time ([`departure_points`]).
+    ///
+    /// The groups follow the lattice rows: the nodes of a row away from its
+    /// two ends in runs of [`NODE_GROUP`] (the last overlapping its
+    /// predecessor), whose stencils mostly fall in one lattice row of the
+    /// velocity (the kernel's row windows, no gathers); the rows' end
+    /// nodes, whose stencils mostly wrap, gathered into groups of their
+    /// own. A node's result does not depend on its group: the same bits.
     fn track_lattice(&mut self, input: &StepInput<'_>) {
         let vd = *input.velocity.domain();
+        let [nx, ny, _] = self.lattice.domain().dims;
         let (u, dt_cells, bt) = (input.velocity, input.dt / vd.cell, input.backtrace);
         let walls = self.walls.as_deref();
+        let into_box = BoxWrap::new(&vd);
+        // Up to NODE_GROUP nodes moved in place, on the stack.
+        let track = |ys: &mut [Vec3]| {
+            let n = ys.len();
+            // `vd.grid_coords(y)`, one axis at a time (vector divisions).
+            let mut c = [[0.0f32; NODE_GROUP]; 3];
+            for (a, c) in c.iter_mut().enumerate() {
+                for (c, y) in c.iter_mut().zip(&*ys) {
+                    *c = (y[a] - vd.origin[a]) / vd.cell - 0.5;
+                }
+            }
+            let g0: [Vec3; NODE_GROUP] =
+                std::array::from_fn(|l| Vec3::new(c[0][l], c[1][l], c[2][l]));
+            let mut g = g0;
+            departure_points(u, &mut g[..n], -dt_cells, bt);
+            for _ in 0..FORWARD_ITERATIONS {
+                let mut back = g;
+                departure_points(u, &mut back[..n], dt_cells, bt);
+                for ((g, &g0), &b) in g.iter_mut().zip(&g0).zip(&back).take(n) {
+                    *g = g0 + (*g - b);
+                }
+            }
+            for (y, &g) in ys.iter_mut().zip(&g) {
+                let g = walls.map_or(g, |w| w.stop(g));
+                *y = into_box.wrap(vd.world_of(g));
+            }
+        };
         self.lattice
             .as_vec3_mut()
-            .par_chunks_mut(4096)
-            .for_each(|ys| {
-                // Groups of nodes on the stack: nothing is allocated.
-                for ys in ys.chunks_mut(NODE_GROUP) {
-                    let n = ys.len();
-                    let mut g0 = [Vec3::ZERO; NODE_GROUP];
-                    for (g0, y) in g0.iter_mut().zip(&*ys) {
-                        *g0 = vd.grid_coords(*y);
+            .par_chunks_mut(nx * ny)
+            .for_each(|slab| {
+                // Nodes left to the mixed groups: their indices in the slab.
+                let (mut pending, mut count) = ([0usize; NODE_GROUP], 0);
+                let flush = |slab: &mut [Vec3], pending: &[usize]| {
+                    let mut group = [Vec3::ZERO; NODE_GROUP];
+                    for (g, &n) in group.iter_mut().zip(pending) {
+                        *g = slab[n];
                     }
-                    let mut g = g0;
-                    departure_points(u, &mut g[..n], -dt_cells, bt);
-                    for _ in 0..FORWARD_ITERATIONS {
-                        let mut back = g;
-                        departure_points(u, &mut back[..n], dt_cells, bt);
-                        for ((g, &g0), &b) in g.iter_mut().zip(&g0).zip(&back).take(n) {
-                            *g = g0 + (*g - b);
+                    track(&mut group[..pending.len()]);
+                    for (g, &n) in group.iter().zip(pending) {
+                        slab[n] = *g;
+                    }
+                };
+                for j in 0..ny {
+                    let row = j * nx..(j + 1) * nx;
+                    let inner = row.start + 1..row.end - 1;
+                    let ends = [row.start, row.end - 1];
+                    let rest: &[usize] = if inner.len() >= NODE_GROUP {
+                        // The overlapping last run first, from the nodes
+                        // as they were; the runs before it in place.
+                        let last = inner.end - NODE_GROUP;
+                        let mut tail = [Vec3::ZERO; NODE_GROUP];
+                        tail.copy_from_slice(&slab[last..inner.end]);
+                        track(&mut tail);
+                        let mut s = inner.start;
+                        while s + NODE_GROUP <= inner.end {
+                            track(&mut slab[s..s + NODE_GROUP]);
+                            s += NODE_GROUP;
+                        }
+                        slab[s..inner.end].copy_from_slice(&tail[s - last..]);
+                        &ends
+                    } else {
+                        &[]
+                    };
+                    let short = row.clone().filter(|_| rest.is_empty());
+                    for n in rest.iter().copied().chain(short) {
+                        pending[count] = n;
+                        count += 1;
+                        if count == NODE_GROUP {
+                            flush(slab, &pending);
+                            count = 0;
                         }
                     }
-                    for (y, &g) in ys.iter_mut().zip(&g) {
-                        let g = walls.map_or(g, |w| w.stop(g));
-                        *y = wrap_world(&vd, vd.world_of(g));
-                    }
                 }
+                flush(slab, &pending[..count]);
             });
     }
 
@@ -372,10 +535,13 @@ impl SelmaMap {
         let md = *self.domain();
         let [nx, ny, nz] = md.dims;
         let (size, h) = (md.size(), md.cell);
+        let half = 0.5 * size;
         let y = self.lattice.as_vec3();
         (0..nz)
             .into_par_iter()
             .map(|k| {
+                // The largest squared length, its root taken once (the root
+                // is monotone and correctly rounded: the same bits).
                 let mut m = 0.0f32;
                 for j in 0..ny {
                     let row = |j, k| &y[md.index(0, j, k)..][..nx];
@@ -384,18 +550,20 @@ impl SelmaMap {
                     for (i, &p) in here.iter().enumerate() {
                         let up_x = here[if i + 1 == nx { 0 } else { i + 1 }];
                         for (q, e) in [(up_x, Vec3::X), (up_y[i], Vec3::Y), (up_z[i], Vec3::Z)] {
-                            m = m.max((nearest_image(q - p, size) - h * e).length());
+                            m = m.max((nearest_image(q - p, size, half) - h * e).length_squared());
                         }
                     }
                 }
-                m / h
+                m.sqrt() / h
             })
             .reduce(|| 0.0, f32::max)
     }
 
     /// `X ←` identity, lattice at rest.
     fn reset(&mut self) {
-        self.spare_mut().as_slice_mut().fill(0.0);
+        for c in &mut self.spare_mut().0 {
+            c.as_slice_mut().fill(0.0);
+        }
         std::mem::swap(&mut self.disp, &mut self.spare);
         reset_lattice(&mut self.lattice);
     }
@@ -518,8 +686,9 @@ impl Selma {
         let d = *self.centres.domain();
         let field = &self.field;
         let md = *field.disp.domain();
+        let into_box = BoxWrap::new(&md);
+        let [dx, dy, dz] = field.disp.slices();
         let slab = d.dims[0] * d.dims[1];
-        let disp = field.disp.as_vec3();
         self.centres
             .as_slice_mut()
             .par_chunks_mut(slab)
@@ -530,9 +699,10 @@ impl Selma {
                     d.slab_centers(k, centres);
                     xi.clear();
                     if md == d {
-                        let nodes = &disp[k * slab..(k + 1) * slab];
+                        let nodes = k * slab..;
                         xi.extend(
-                            (centres.iter().zip(nodes)).map(|(&p, &dv)| wrap_world(&md, p + dv)),
+                            (centres.iter().zip(nodes))
+                                .map(|(&p, n)| into_box.wrap(p + Vec3::new(dx[n], dy[n], dz[n]))),
                         );
                     } else {
                         xi.resize(centres.len(), Vec3::ZERO);
@@ -559,10 +729,10 @@ impl Selma {
     /// once), its spare and lattice by its owner.
     pub fn buffers(&self, out: &mut Vec<Buffer>) {
         out.push(Buffer::of_scalar(&self.centres));
-        out.push(Buffer::of_vector(&self.field.disp));
+        out.extend(self.field.disp.0.iter().map(Buffer::of_scalar));
         out.push(Buffer::of_scalar(&self.field.reference));
         if let Some(m) = &self.map {
-            out.push(Buffer::of_vector(&m.spare));
+            out.extend(m.spare.0.iter().map(Buffer::of_scalar));
             out.push(Buffer::of_vector(&m.lattice));
         }
         out.extend(self.fresh.iter().map(Buffer::of_scalar));
@@ -574,7 +744,7 @@ impl Selma {
     pub fn state(&self) -> SelmaState {
         SelmaState {
             map: self.map.as_ref().map(|m| MapState {
-                disp: (*m.disp).clone(),
+                disp: m.disp.to_vector(),
                 lattice: m.lattice.clone(),
             }),
             reference: (*self.field.reference).clone(),
@@ -602,7 +772,7 @@ impl Selma {
         );
         self.map = state.map.map(|m| {
             let mut own = SelmaMap::new(md, self.remap, self.field.walls.clone());
-            own.disp = Arc::new(m.disp);
+            own.disp = Arc::new(Displacement::from_vector(&m.disp));
             own.lattice = m.lattice;
             Box::new(own)
         });
@@ -712,8 +882,8 @@ fn inject_slab(md: &Domain, ys: &[Vec3], dt: f32, mut gases: [Option<(&Scalar, &
         sub_points(md, ys, points);
         for (source, r) in gases.iter_mut().flatten() {
             source.eval_batch(points, values);
-            for (r, v) in r[c * CHUNK..].iter_mut().zip(values.chunks_exact(8)) {
-                *r += dt * (v.iter().sum::<f32>() * 0.125);
+            for (m, r) in r[c * CHUNK..][..ys.len()].iter_mut().enumerate() {
+                *r += dt * (sub_sum(values, m) * 0.125);
             }
         }
     }
@@ -788,8 +958,8 @@ fn reanchor_slab(
         map.map_batch(points, xi);
         for (field, out) in gases.iter_mut().flatten() {
             field.at_reference(xi, values);
-            for (o, v) in out[first..].iter_mut().zip(values.chunks_exact(8)) {
-                *o = v.iter().sum::<f32>() * 0.125;
+            for (m, o) in out[first..][..len].iter_mut().enumerate() {
+                *o = sub_sum(values, m) * 0.125;
             }
         }
     }
@@ -821,24 +991,81 @@ pub struct MapState {
 }
 
 /// The 2×2×2 sub-points of a map cell around each of `centres`, wrapped
-/// into the box, eight per centre.
+/// into the box, eight per centre, offset by offset: sub-point `s` of
+/// centre `m` at `out[s·n + m]` (`n` centres), so that a run of sixteen
+/// lanes holds one offset of consecutive centres — points of one lattice
+/// row, which the sampling kernels fetch by a row window.
 fn sub_points(md: &Domain, centres: &[Vec3], out: &mut [Vec3]) {
-    for (&c, out) in centres.iter().zip(out.chunks_exact_mut(8)) {
-        for (o, s) in out.iter_mut().zip(SUB) {
-            *o = wrap_world(md, c + s * md.cell);
+    let n = centres.len();
+    assert_eq!(out.len(), 8 * n, "sub_points: eight per centre");
+    let into_box = BoxWrap::new(md);
+    let offsets = SUB.map(|s| s * md.cell);
+    let (low, high) = (offsets[0], offsets[7]);
+    for (m, &c) in centres.iter().enumerate() {
+        // Every sub-point's coordinates are the lowest's or the highest's:
+        // when those two are inside the box, all eight are.
+        let inside = into_box.inside(c + low) && into_box.inside(c + high);
+        for (s, &o) in offsets.iter().enumerate() {
+            out[s * n + m] = if inside { c + o } else { into_box.wrap(c + o) };
         }
     }
 }
 
-/// The periodic image of the offset `d` nearest zero, `d − L·round(d/L)`
-/// (box size `L`): `d` itself within half a box, without the rounding.
+/// The sum of centre `m`'s eight sub-point values, laid out as
+/// [`sub_points`] lays out the points, in the offsets' order.
 #[inline(always)]
-fn nearest_image(d: Vec3, size: Vec3) -> Vec3 {
-    let r = d / size;
-    if r.abs().max_element() < 0.5 {
+fn sub_sum(values: &[f32], m: usize) -> f32 {
+    let n = values.len() / 8;
+    (0..8).map(|s| values[s * n + m]).sum::<f32>()
+}
+
+/// The periodic image of the offset `d` nearest zero, `d − L·round(d/L)`
+/// (box size `L = 2·half`): `d` itself within half a box, without the
+/// division. (Only an offset within one rounding of half a box could take
+/// the other branch than a test of `|d/L| < ½`, and either image then
+/// measures a lattice deformed by half a box, far past any threshold.)
+#[inline(always)]
+fn nearest_image(d: Vec3, size: Vec3, half: Vec3) -> Vec3 {
+    if d.abs().cmplt(half).all() {
         d
     } else {
-        d - size * r.round()
+        d - size * (d / size).round()
+    }
+}
+
+/// [`wrap_world`] for many points of one box, its bounds computed once:
+/// the same bits.
+#[derive(Clone, Copy)]
+struct BoxWrap {
+    domain: Domain,
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl BoxWrap {
+    fn new(domain: &Domain) -> Self {
+        let (lo, size) = (domain.origin, domain.size());
+        Self {
+            domain: *domain,
+            lo,
+            hi: lo + size,
+        }
+    }
+
+    /// Whether `p` lies in the box, `lo ≤ p < hi`: where `wrap_world` keeps it.
+    #[inline(always)]
+    fn inside(&self, p: Vec3) -> bool {
+        (p.cmpge(self.lo) & p.cmplt(self.hi)).bitmask() == 0b111
+    }
+
+    /// `p` wrapped into the box (unchanged inside it, as `wrap_world`).
+    #[inline(always)]
+    fn wrap(&self, p: Vec3) -> Vec3 {
+        if self.inside(p) {
+            p
+        } else {
+            wrap_world(&self.domain, p)
+        }
     }
 }
 
@@ -864,6 +1091,11 @@ mod tests {
 
     /// A shear-and-swirl velocity on a 16³ box of edge 8.
     fn velocity() -> FaceGrid {
+        velocity_on(16)
+    }
+
+    /// The shear-and-swirl velocity on an `n`³ box of edge 8.
+    fn velocity_on(n: usize) -> FaceGrid {
         struct Swirl;
         impl crate::field::VectorField for Swirl {
             fn eval(&self, p: Vec3) -> Vec3 {
@@ -871,7 +1103,106 @@ mod tests {
                 Vec3::new((k * p.y).sin(), (k * p.z).cos(), 0.5 * (k * p.x).sin())
             }
         }
-        FaceGrid::from_field(Domain::cube(16, 8.0).unwrap(), BoxKind::Periodic, &Swirl)
+        FaceGrid::from_field(Domain::cube(n, 8.0).unwrap(), BoxKind::Periodic, &Swirl)
+    }
+
+    /// Bits of a vector, for exact comparisons.
+    fn bits3(v: Vec3) -> [u32; 3] {
+        v.to_array().map(f32::to_bits)
+    }
+
+    /// The map's update by the row sweep ([`advect_map`]) and the lattice's
+    /// by row runs are, node by node, the scalar point trace and stencil: a
+    /// 24³ grid (rows of 22 inner nodes: a run and an overlapping one),
+    /// second step (a non-zero `D`), with and without an obstacle stopping
+    /// the departure points.
+    #[test]
+    fn the_row_sweeps_give_the_point_traces_bits() {
+        let u = velocity_on(24);
+        let d = *u.domain();
+        let (dt, bt) = (0.4, Backtrace::Rk2);
+        let input = StepInput {
+            velocity: &u,
+            snapshot: None,
+            dt,
+            backtrace: bt,
+        };
+        let ball = crate::field::ops::sphere(Vec3::splat(5.0), 1.2);
+        let walls = Arc::new(WallStop::new(ScalarGrid::from_field(d, &*ball)));
+        for walls in [None, Some(walls)] {
+            let mut s = Selma::new(d, d, None, None, 0.0);
+            if let Some(w) = &walls {
+                s.set_walls(Arc::clone(w));
+            }
+            s.step(&input);
+            let map = s.map.as_ref().unwrap();
+            let (old, lattice) = (Arc::clone(&map.disp), map.lattice.clone());
+            s.step(&input);
+            let map = s.map.as_ref().unwrap();
+            let stop = |g: Vec3| walls.as_ref().map_or(g, |w| w.stop(g));
+            let old_at = |g: Vec3| {
+                let st = crate::grid::Stencil::new(g, d.dims, crate::grid::Wrap::Periodic);
+                Vec3::from_array(old.slices().map(|c| st.apply(c)))
+            };
+            let [dx, dy, dz] = map.disp.slices();
+            let dt_cells = dt / d.cell;
+            let mut moved = 0;
+            for n in 0..d.dims.iter().product() {
+                let (i, j, k) = (n % 24, (n / 24) % 24, n / 576);
+                let c = Vec3::new(i as f32, j as f32, k as f32);
+                let raw = departure_point(&u, c, dt_cells, bt);
+                let dep = stop(raw);
+                let want = (dep - c) * d.cell + old_at(dep);
+                assert_eq!(
+                    bits3(Vec3::new(dx[n], dy[n], dz[n])),
+                    bits3(want),
+                    "D at {n}"
+                );
+                let g0 = d.grid_coords(lattice.as_vec3()[n]);
+                let g = departure_point(&u, g0, -dt_cells, bt);
+                let g = g0 + (g - departure_point(&u, g, dt_cells, bt));
+                let y = wrap_world(&d, d.world_of(stop(g)));
+                assert_eq!(bits3(map.lattice.as_vec3()[n]), bits3(y), "Y at {n}");
+                moved += usize::from(dep != raw);
+            }
+            // With the obstacle some departure points were stopped (measured:
+            // 183 of the 13824 nodes), so its branch was exercised.
+            println!("{moved} departure points stopped");
+            assert_eq!(
+                walls.is_some(),
+                moved > 0,
+                "{moved} departure points stopped"
+            );
+        }
+    }
+
+    /// [`sample_points`] (sixteen lanes, eight, or one by one) gives the
+    /// [`crate::grid::Stencil`]'s bits at any points: inside, across the
+    /// periodic seam, periods away, in runs of every length up to 40.
+    #[test]
+    fn sampled_lanes_are_the_stencils_bits() {
+        let d = Domain::cube(20, 5.0).unwrap();
+        let f = crate::field::ops::sphere(Vec3::splat(2.0), 1.5);
+        let grid = ScalarGrid::from_field(d, &*f);
+        let mut seed = 0x2545_f491_u32;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            seed as f32 / u32::MAX as f32
+        };
+        for n in 0..=40 {
+            let g: Vec<Vec3> = (0..n)
+                .map(|_| Vec3::new(next(), next(), next()) * 64.0 - 22.0)
+                .collect();
+            let lanes: [Vec<f32>; 3] = std::array::from_fn(|a| g.iter().map(|p| p[a]).collect());
+            let mut out = vec![0.0; n];
+            let at = [&lanes[0][..], &lanes[1][..], &lanes[2][..]];
+            sample_points(grid.as_slice(), (d.dims, grid.wrap()), at, &mut out);
+            for (o, &p) in out.iter().zip(&g) {
+                assert_eq!(o.to_bits(), grid.sample_grid_coords(p).to_bits(), "at {p}");
+            }
+        }
     }
 
     #[test]
@@ -908,7 +1239,8 @@ mod tests {
             "lattice misses its backtrace by {worst} cells"
         );
         // And the map X(x) = x + D(x) at the nodes is the backtrace itself.
-        let x0 = s.field.disp.as_vec3()[0] / d.cell;
+        let [dx, dy, dz] = s.field.disp.slices();
+        let x0 = Vec3::new(dx[0], dy[0], dz[0]) / d.cell;
         assert!((x0 - (dep.points()[0] - Vec3::ZERO)).length() < 1e-5);
     }
 
@@ -931,7 +1263,12 @@ mod tests {
         s.step(&input);
         s.step(&input);
         assert_eq!(s.restarts(), 2);
-        assert!(s.field.disp.as_slice().iter().all(|&v| v == 0.0));
+        assert!(s
+            .field
+            .disp
+            .slices()
+            .iter()
+            .all(|c| c.iter().all(|&v| v == 0.0)));
         assert_eq!(s.lattice_deformation(), Some(0.0));
         // Two steps of a 1.5-radius sphere at rate 1: mass ≈ 2 Δt (4/3)π 1.5³.
         let mass = s.field.reference.total();
