@@ -95,6 +95,9 @@ fn apply(lat: &Lattice, mask: &[u8], x: &[f32], out: &mut [f32]) -> f64 {
             }
             dot
         })
+        // Added in slab order: the same bits at any thread count.
+        .collect::<Vec<f64>>()
+        .into_iter()
         .sum()
 }
 
@@ -210,7 +213,10 @@ impl FacePressure {
                     }
                     (rz, rmax)
                 })
-                .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)))
+                // Added in chunk order: the same bits at any thread count.
+                .collect::<Vec<_>>()
+                .into_iter()
+                .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)))
         };
         let (mut rz, mut res) = precondition(&self.r, &self.inv_diag, &mut self.z);
         self.d.copy_from_slice(&self.z);

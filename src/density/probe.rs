@@ -126,6 +126,9 @@ pub fn integral(f: &dyn ScalarField, domain: &Domain, refine: usize) -> f64 {
                 values.iter().map(|&v| v as f64).sum::<f64>()
             },
         )
+        // Added in slab order: the same bits at any thread count.
+        .collect::<Vec<_>>()
+        .into_iter()
         .sum();
     sum * fine.cell_volume() as f64
 }

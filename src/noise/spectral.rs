@@ -406,7 +406,10 @@ impl SpectralTile {
                 }
                 (max_net, sum_abs)
             })
-            .reduce(|| (0.0, 0.0), |a, b| (a.0.max(b.0), a.1 + b.1));
+            // Added in order: the same bits at any thread count.
+            .collect::<Vec<_>>()
+            .into_iter()
+            .fold((0.0f32, 0.0f64), |a, b| (a.0.max(b.0), a.1 + b.1));
         let mean_abs = (abs / (self.params.frames * n * n * n) as f64) as f32;
         TileDivergence {
             max_net: net,
