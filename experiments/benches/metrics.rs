@@ -8,36 +8,20 @@
 //!
 //! Run: `cargo bench -p smokelab-app --bench metrics` (about a minute).
 
+mod warm;
+
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use rayon::prelude::*;
+use smokelab::advection::Backtrace;
 use smokelab::metrics;
-use smokelab::scenario::hot_cold::HotColdConfig;
-use smokelab::scenario::{Scenario, SolverConfig};
-use smokelab::simulation::Simulation;
 use smokelab_app::run::{StepMeasures, PROBE_POINTS};
 use std::hint::black_box;
-
-/// The hot/cold simulation at `res`³, stepped until the gases move.
-fn warmed(res: usize) -> Simulation {
-    let config = HotColdConfig {
-        solver: SolverConfig {
-            res,
-            ..SolverConfig::default()
-        },
-        ..Default::default()
-    };
-    let mut sim = config.build().expect("valid config");
-    for _ in 0..40 {
-        sim.step();
-    }
-    sim
-}
 
 /// Bytes written before each cold measure: twice the L3 cache.
 const FLUSH_BYTES: usize = 64 << 20;
 
 fn benches(c: &mut Criterion) {
-    let sim = warmed(128);
+    let sim = warm::hot_cold(128, Backtrace::Rk2);
     let points = metrics::probe_points(sim.domain(), PROBE_POINTS, 1);
     let (a, b) = (sim.gases[0].density(), sim.gases[1].density());
     let parts: [(&str, &(dyn Fn() + Sync)); 4] = [

@@ -3,44 +3,25 @@
 //! projection alone and semi-Lagrangian advection alone. Planning and warm-up are outside the
 //! timed region. Run: `cargo bench --bench solver`.
 
+mod warm;
+
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use smokelab::advection::{advect_faces, advect_fused, interpolate_scalar, Backtrace, Departures};
 use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::pressure::PressureSolver;
-use smokelab::scenario::hot_cold::HotColdConfig;
-use smokelab::scenario::Scenario;
-use smokelab::scenario::SolverConfig;
-
-/// A hot/cold simulation at `res`³ with the `backtrace`, stepped until the
-/// gases move.
-fn warmed(res: usize, backtrace: Backtrace) -> smokelab::simulation::Simulation {
-    let config = HotColdConfig {
-        solver: SolverConfig {
-            res,
-            backtrace,
-            ..SolverConfig::default()
-        },
-        ..Default::default()
-    };
-    let mut sim = config.build().expect("valid config");
-    for _ in 0..40 {
-        sim.step();
-    }
-    sim
-}
 
 fn benches(c: &mut Criterion) {
     let mut g = c.benchmark_group("hot_cold");
     g.sample_size(10);
     for res in [64usize, 128] {
-        let mut sim = warmed(res, Backtrace::Euler);
+        let mut sim = warm::hot_cold(res, Backtrace::Euler);
         let cells = sim.domain().len() as u64;
         g.throughput(Throughput::Elements(cells));
         // The peers' backtrace (`../shared/peers/taichi_advect.py` is Euler).
         g.bench_function(BenchmarkId::new("step_euler", res), |b| {
             b.iter(|| sim.step())
         });
-        let mut sim = warmed(res, Backtrace::Rk2);
+        let mut sim = warm::hot_cold(res, Backtrace::Rk2);
         g.bench_function(BenchmarkId::new("step", res), |b| b.iter(|| sim.step()));
         let mut pressure = PressureSolver::new(*sim.domain(), BoxKind::Periodic);
         let mut vel = sim.velocity.clone();
