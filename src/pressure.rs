@@ -252,7 +252,7 @@ impl PeriodicPlan {
         self.fft.inverse_blocks(
             |i, col| apply_gain(col, i, nz, Filter::InverseLaplacian, &tables),
             blocks,
-            |(((p, u), v), w), d, _, real| {
+            |(((p, u), v), w), d, real| {
                 let (below, p) = p.split_at_mut(d * slab);
                 let p = &mut p[..slab];
                 for (o, &r) in p.iter_mut().zip(real) {
@@ -267,10 +267,12 @@ impl PeriodicPlan {
         ws.par_chunks_mut(block).enumerate().for_each(|(b, w)| {
             let k = b * SLAB_BLOCK;
             let kl = (k + nz - 1) % nz;
-            let (hi, lo) = (&p[k * slab..][..slab], &p[kl * slab..][..slab]);
-            for ((o, &a), &b) in w[..slab].iter_mut().zip(hi).zip(lo) {
-                *o = (*o as f64 - s * (a - b)) as f32;
-            }
+            subtract_difference(
+                &mut w[..slab],
+                &p[k * slab..][..slab],
+                &p[kl * slab..][..slab],
+                s,
+            );
         });
     }
 }
@@ -286,24 +288,30 @@ fn subtract_gradient_slab(
     below: Option<&[f64]>,
     [u, v, w]: [&mut [f32]; 3],
 ) {
-    let sub = |o: &mut f32, hi: f64, lo: f64| *o = (*o as f64 - s * (hi - lo)) as f32;
     for (ur, pr) in u.chunks_exact_mut(nx).zip(p.chunks_exact(nx)) {
-        sub(&mut ur[0], pr[0], pr[nx - 1]);
-        for ((o, &hi), &lo) in ur[1..].iter_mut().zip(&pr[1..]).zip(pr) {
-            sub(o, hi, lo);
-        }
+        subtract_difference(&mut ur[..1], &pr[..1], &pr[nx - 1..], s);
+        subtract_difference(&mut ur[1..], &pr[1..], pr, s);
     }
     for j in 0..ny {
         let jl = if j == 0 { ny - 1 } else { j - 1 };
-        let (hi, lo) = (&p[j * nx..][..nx], &p[jl * nx..][..nx]);
-        for ((o, &a), &b) in v[j * nx..][..nx].iter_mut().zip(hi).zip(lo) {
-            sub(o, a, b);
-        }
+        subtract_difference(
+            &mut v[j * nx..][..nx],
+            &p[j * nx..][..nx],
+            &p[jl * nx..][..nx],
+            s,
+        );
     }
     if let Some(below) = below {
-        for ((o, &a), &b) in w.iter_mut().zip(p).zip(below) {
-            sub(o, a, b);
-        }
+        subtract_difference(w, p, below, s);
+    }
+}
+
+/// `o_i −= s (hi_i − lo_i)` in f64, rounded once per value (over the
+/// shortest of the three).
+#[inline]
+fn subtract_difference(o: &mut [f32], hi: &[f64], lo: &[f64], s: f64) {
+    for ((o, &a), &b) in o.iter_mut().zip(hi).zip(lo) {
+        *o = (*o as f64 - s * (a - b)) as f32;
     }
 }
 

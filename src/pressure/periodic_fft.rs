@@ -156,7 +156,7 @@ impl<T: FftNum> PeriodicFft<T> {
         let [nx, ny, nz] = self.dims;
         assert_eq!(dst.len(), nx * ny * nz, "inverse: lattice size");
         let blocks = dst.par_chunks_mut(SLAB_BLOCK * nx * ny);
-        self.inverse_blocks(gain, blocks, |out, d, _, slab| {
+        self.inverse_blocks(gain, blocks, |out, d, slab| {
             for (o, &r) in out[d * nx * ny..][..nx * ny].iter_mut().zip(slab) {
                 *o = store(r);
             }
@@ -165,9 +165,9 @@ impl<T: FftNum> PeriodicFft<T> {
 
     /// [`Self::inverse`] with the output taken where it is made: z-slab `k`
     /// of the result (`[y][x]`, unnormalised) is handed to `consume(block,
-    /// d, k, slab)`, where `block` is item `k / SLAB_BLOCK` of `blocks` —
-    /// one per [`SLAB_BLOCK`] consecutive slabs, the task's own — and `d =
-    /// k mod SLAB_BLOCK`; a block's slabs come in order.
+    /// d, slab)`, where `block` is item `k / SLAB_BLOCK` of `blocks` — one
+    /// per [`SLAB_BLOCK`] consecutive slabs, the task's own — and `d = k mod
+    /// SLAB_BLOCK`; a block's slabs come in order.
     ///
     /// # Panics
     /// If `blocks` does not have `⌈nz / SLAB_BLOCK⌉` items.
@@ -175,7 +175,7 @@ impl<T: FftNum> PeriodicFft<T> {
         &mut self,
         gain: impl Fn(usize, &mut [Complex<T>]) + Sync,
         blocks: impl IndexedParallelIterator<Item = B>,
-        consume: impl Fn(&mut B, usize, usize, &[T]) + Sync,
+        consume: impl Fn(&mut B, usize, &[T]) + Sync,
     ) {
         let [nx, ny, nz] = self.dims;
         assert_eq!(
@@ -236,7 +236,6 @@ impl<T: FftNum> PeriodicFft<T> {
         slabs
             .par_chunks_mut(SLAB_BLOCK * nxh * ny)
             .zip(blocks)
-            .enumerate()
             .for_each_init(
                 || {
                     (
@@ -246,8 +245,7 @@ impl<T: FftNum> PeriodicFft<T> {
                         vec![Complex::zero(); ifft_y.get_inplace_scratch_len()],
                     )
                 },
-                |(real, lines, rs, fs), (block, (slabs, mut out))| {
-                    let k0 = block * SLAB_BLOCK;
+                |(real, lines, rs, fs), (slabs, mut out)| {
                     for (d, slab) in slabs.chunks_exact_mut(nxh * ny).enumerate() {
                         ifft_y.process_with_scratch(slab, fs);
                         for (t, rows) in real.chunks_mut(TILE * nx).enumerate() {
@@ -274,7 +272,7 @@ impl<T: FftNum> PeriodicFft<T> {
                                     .expect("c2r buffer sizes are planned");
                             }
                         }
-                        consume(&mut out, d, k0 + d, real);
+                        consume(&mut out, d, real);
                     }
                 },
             );
