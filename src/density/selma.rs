@@ -190,15 +190,11 @@ impl Displacement {
     }
 }
 
-/// Grid coordinates on `d` of `points` (at most `8·CHUNK`), as x, y, z
-/// lanes in `buf`: [`Domain::grid_coords`]'s operations, one lane at a
-/// time so that the divisions run in vector registers (the same bits).
-fn grid_lanes<'a>(
-    d: &Domain,
-    points: &[Vec3],
-    buf: &'a mut [[f32; 8 * CHUNK]; 3],
-) -> [&'a [f32]; 3] {
-    let [gx, gy, gz] = lanes(buf, points.len());
+/// Grid coordinates on `d` of `points`, as x, y, z lanes in `out` (each
+/// `points.len()` long): [`Domain::grid_coords`]'s operations, one lane at
+/// a time so that the divisions run in vector registers (the same bits).
+fn grid_lanes<'a>(d: &Domain, points: &[Vec3], out: [&'a mut [f32]; 3]) -> [&'a [f32]; 3] {
+    let [gx, gy, gz] = out;
     for (a, lane) in [&mut *gx, &mut *gy, &mut *gz].into_iter().enumerate() {
         for (g, p) in lane.iter_mut().zip(points) {
             *g = p[a];
@@ -243,7 +239,7 @@ impl BackwardMap for SelmaField {
         for (points, out) in points.chunks(8 * CHUNK).zip(out.chunks_mut(8 * CHUNK)) {
             let n = points.len();
             self.disp
-                .sample(grid_lanes(md, points, &mut g), lanes(&mut d, n));
+                .sample(grid_lanes(md, points, lanes(&mut g, n)), lanes(&mut d, n));
             for (m, (x, &p)) in out.iter_mut().zip(points).enumerate() {
                 *x = into_box.wrap(p + Vec3::new(d[0][m], d[1][m], d[2][m]));
             }
@@ -285,7 +281,7 @@ impl SelmaField {
         let r = &*self.reference;
         let mut g = [[0.0; 8 * CHUNK]; 3];
         for (xi, out) in xi.chunks(8 * CHUNK).zip(out.chunks_mut(8 * CHUNK)) {
-            let g = grid_lanes(r.domain(), xi, &mut g);
+            let g = grid_lanes(r.domain(), xi, lanes(&mut g, xi.len()));
             sample_points(r.as_slice(), (r.domain().dims, r.wrap()), g, out);
         }
         if let Some(initial) = &self.initial {
@@ -453,13 +449,8 @@ impl SelmaMap {
         // Up to NODE_GROUP nodes moved in place, on the stack.
         let track = |ys: &mut [Vec3]| {
             let n = ys.len();
-            // `vd.grid_coords(y)`, one axis at a time (vector divisions).
             let mut c = [[0.0f32; NODE_GROUP]; 3];
-            for (a, c) in c.iter_mut().enumerate() {
-                for (c, y) in c.iter_mut().zip(&*ys) {
-                    *c = (y[a] - vd.origin[a]) / vd.cell - 0.5;
-                }
-            }
+            grid_lanes(&vd, ys, c.each_mut().map(|c| &mut c[..n]));
             let g0: [Vec3; NODE_GROUP] =
                 std::array::from_fn(|l| Vec3::new(c[0][l], c[1][l], c[2][l]));
             let mut g = g0;
