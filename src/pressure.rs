@@ -89,7 +89,7 @@
 //! multiply fused between the forward and inverse z transforms; then the y
 //! and x inverses of a few z-slabs per task. The periodic box's pair is
 //! [`periodic_fft::PeriodicFft`] in f64 (the same type in f32 is the FFT
-//! floor of experiment P-1). In a periodic box the projection has no pass
+//! floor of experiment P-1 and, forward only, the metrics' spectra). In a periodic box the projection has no pass
 //! of its own: each task of the first pass computes the divergence of its
 //! slab before transforming it, and each task of the last subtracts the
 //! gradient of the slabs of `p` it has just made.

@@ -8,50 +8,31 @@
 //! cell-to-cell alternating velocity; with the Nyquist index of a coarser grid
 //! it is the detail that grid cannot hold.
 //!
-//! The transforms (real-to-complex along x, complex along y and z) are
-//! planned once in [`SpectralShare::new`] and every buffer is reused.
+//! The transform is the pressure solver's periodic FFT in f32
+//! ([`PeriodicFft`]: real-to-complex along x, complex along y and z, planned
+//! once in [`SpectralShare::new`], every buffer reused), taken forward only
+//! ([`PeriodicFft::spectra`]).
 
-use std::sync::Arc;
-
-use rayon::prelude::*;
 use realfft::num_complex::Complex32;
-use realfft::{RealFftPlanner, RealToComplex};
-use rustfft::{Fft, FftPlanner};
 
-/// Planned transforms and buffers for arrays of one shape `[nx, ny, nz]`.
+use crate::pressure::periodic_fft::PeriodicFft;
+
+/// A planned transform for arrays of one shape `[nx, ny, nz]`.
 pub struct SpectralShare {
-    dims: [usize; 3],
-    nxh: usize,
-    r2c: Arc<dyn RealToComplex<f32>>,
-    fft_y: Arc<dyn Fft<f32>>,
-    fft_z: Arc<dyn Fft<f32>>,
-    /// Spectrum after the x and y passes, `[z][y][kx]`.
-    slabs: Vec<Complex32>,
-    /// Full spectrum, `[ky][kx][kz]`.
-    columns: Vec<Complex32>,
+    fft: PeriodicFft<f32>,
 }
 
 impl SpectralShare {
     /// Plans for arrays of `dims = [nx, ny, nz]` (`[z][y][x]` order in memory).
     pub fn new(dims: [usize; 3]) -> Self {
-        let [nx, ny, nz] = dims;
-        let nxh = nx / 2 + 1;
-        let len = nxh * ny * nz;
-        let mut complex = FftPlanner::<f32>::new();
         Self {
-            dims,
-            nxh,
-            r2c: RealFftPlanner::<f32>::new().plan_fft_forward(nx),
-            fft_y: complex.plan_fft_forward(ny),
-            fft_z: complex.plan_fft_forward(nz),
-            slabs: vec![Complex32::default(); len],
-            columns: vec![Complex32::default(); len],
+            fft: PeriodicFft::new(dims),
         }
     }
 
     /// Bytes of the buffers.
     pub fn bytes(&self) -> usize {
-        std::mem::size_of_val(&self.slabs[..]) + std::mem::size_of_val(&self.columns[..])
+        self.fft.bytes()
     }
 
     /// Share of the summed non-mean energy of `arrays` with `|k_a| > cut[a]`
@@ -73,89 +54,38 @@ impl SpectralShare {
         }
     }
 
-    /// Non-mean energy of `src`, and its part beyond `cut`.
+    /// Non-mean energy `Σ_{k≠0} |f̂(k)|²` of `src`, and its part beyond `cut`
+    /// (bins `kx = 1 … nx/2 − 1` stand for `±kx` and count twice).
     fn energy(&mut self, src: &[f32], cut: [usize; 3]) -> (f64, f64) {
-        let [nx, ny, nz] = self.dims;
+        let [nx, ny, nz] = self.fft.dims();
         assert_eq!(src.len(), nx * ny * nz, "spectrum: array of another size");
-        let nxh = self.nxh;
-        let cut = cut.map(|c| c as i64);
-        let (r2c, fft_y) = (&self.r2c, &self.fft_y);
-        self.slabs
-            .par_chunks_mut(ny * nxh)
-            .enumerate()
-            .for_each_init(
-                || {
-                    (
-                        vec![0.0f32; nx],
-                        vec![Complex32::default(); r2c.get_scratch_len()],
-                        vec![Complex32::default(); ny],
-                        vec![Complex32::default(); fft_y.get_inplace_scratch_len()],
-                    )
-                },
-                |(real, rs, line, ys), (k, slab)| {
-                    for j in 0..ny {
-                        real.copy_from_slice(&src[(k * ny + j) * nx..(k * ny + j + 1) * nx]);
-                        r2c.process_with_scratch(real, &mut slab[j * nxh..(j + 1) * nxh], rs)
-                            .expect("r2c buffer sizes are planned");
-                    }
-                    for i in 0..nxh {
-                        for j in 0..ny {
-                            line[j] = slab[j * nxh + i];
-                        }
-                        fft_y.process_with_scratch(line, ys);
-                        for j in 0..ny {
-                            slab[j * nxh + i] = line[j];
-                        }
-                    }
-                },
-            );
-        let (slabs, fft_z) = (&self.slabs, &self.fft_z);
-        let signed = |m: usize, n: usize| {
-            if m <= n / 2 {
-                m as i64
+        let signed = |m: usize, n: usize| if m <= n / 2 { m } else { n - m };
+        let beyond_y: Vec<bool> = (0..ny).map(|j| signed(j, ny) > cut[1]).collect();
+        let beyond_z: Vec<bool> = (0..nz).map(|k| signed(k, nz) > cut[2]).collect();
+        self.fft.forward(src, |v| v);
+        let columns = self.fft.spectra(|i, col: &[Complex32]| {
+            let w = if i == 0 || (nx % 2 == 0 && i == nx / 2) {
+                1.0
             } else {
-                m as i64 - n as i64
+                2.0
+            };
+            let (mut total, mut above) = (0.0f64, 0.0f64);
+            for (j, line) in col.chunks_exact(nz).enumerate() {
+                for (k, c) in line.iter().enumerate() {
+                    if i == 0 && j == 0 && k == 0 {
+                        continue;
+                    }
+                    let e = w * c.norm_sqr() as f64;
+                    total += e;
+                    if i > cut[0] || beyond_y[j] || beyond_z[k] {
+                        above += e;
+                    }
+                }
             }
-        };
-        self.columns
-            .par_chunks_mut(nxh * nz)
-            .enumerate()
-            .map_init(
-                || vec![Complex32::default(); fft_z.get_inplace_scratch_len()],
-                |scratch, (j, col)| {
-                    for k in 0..nz {
-                        let row = &slabs[(k * ny + j) * nxh..(k * ny + j + 1) * nxh];
-                        for (i, &v) in row.iter().enumerate() {
-                            col[i * nz + k] = v;
-                        }
-                    }
-                    fft_z.process_with_scratch(col, scratch);
-                    let sy = signed(j, ny).abs();
-                    let (mut total, mut above) = (0.0f64, 0.0f64);
-                    for i in 0..nxh {
-                        // Bins 1 … nx/2−1 stand for ±kx: count them twice.
-                        let w = if i == 0 || (nx % 2 == 0 && i == nx / 2) {
-                            1.0
-                        } else {
-                            2.0
-                        };
-                        for k in 0..nz {
-                            if i == 0 && j == 0 && k == 0 {
-                                continue;
-                            }
-                            let e = w * col[i * nz + k].norm_sqr() as f64;
-                            total += e;
-                            let sz = signed(k, nz).abs();
-                            if i as i64 > cut[0] || sy > cut[1] || sz > cut[2] {
-                                above += e;
-                            }
-                        }
-                    }
-                    (total, above)
-                },
-            )
-            // Added in column order: the same bits at any thread count.
-            .collect::<Vec<_>>()
+            (total, above)
+        });
+        // Added in x-frequency order: the same bits at any thread count.
+        columns
             .into_iter()
             .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1))
     }
@@ -191,7 +121,7 @@ mod tests {
         assert!((both - 0.5).abs() < 1e-5, "{both}");
     }
 
-    /// The per-column energies are added in column order, so the share has
+    /// The per-column energies are added in x-frequency order, so the share has
     /// the same bits on 1 and 3 threads (a rayon `reduce` did not: its tree
     /// follows the work stealing). Measured share: 0.966.
     #[test]

@@ -65,9 +65,9 @@ impl Default for HotColdConfig {
 /// of half size (24) and the divergence diagnostic (4), plus slack.
 const BYTES_PER_CELL: u64 = 96;
 
-/// Bytes per fine (2×) cell of the density metrics: the sampling (4) and two
-/// half-size complex spectra (8).
-const PROBE_BYTES_PER_FINE_CELL: u64 = 12;
+/// Bytes per fine (2×) cell of the density metrics: the sampling (4) and one
+/// half-size complex spectrum (4).
+const PROBE_BYTES_PER_FINE_CELL: u64 = 8;
 
 /// Bytes per map cell of one SELMA gas (11 floats, see [`crate::density::selma`]).
 const SELMA_BYTES_PER_MAP_CELL: u64 = 44;
