@@ -25,6 +25,7 @@
 //! The transforms (real-to-complex along x, complex along y and z) are
 //! planned once in [`DensityProbe::new`] and every buffer is reused.
 
+use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -144,22 +145,31 @@ pub fn cell_averages(f: &dyn ScalarField, domain: &Domain, refine: usize) -> Sca
     let [nx, ny, _] = domain.dims;
     let mut grid = ScalarGrid::zeros(*domain);
     let weight = 1.0 / (refine * refine * refine) as f64;
+    let nf = fine.dims[0];
     grid.as_slice_mut()
         .par_chunks_mut(nx * ny)
         .enumerate()
         .for_each_init(
-            || (Vec::new(), Vec::new(), vec![0.0f64; nx * ny]),
+            || {
+                (
+                    vec![Vec3::ZERO; nf],
+                    vec![0.0f32; nf],
+                    vec![0.0f64; nx * ny],
+                )
+            },
             |(points, values, sums), (k, out)| {
                 sums.iter_mut().for_each(|s| *s = 0.0);
+                // One fine row at a time (its points stay in the L1 cache),
+                // each adding `refine` samples in a row to each of its
+                // coarse cells, in the samples' order.
                 for kf in k * refine..(k + 1) * refine {
-                    fine.slab_centers(kf, points);
-                    values.resize(points.len(), 0.0);
-                    f.eval_batch(points, values);
-                    // Each fine row adds `refine` samples in a row to each
-                    // of its coarse cells, in the samples' order.
-                    for (jf, row) in values.chunks_exact(fine.dims[0]).enumerate() {
+                    for jf in 0..fine.dims[1] {
+                        for (i, p) in points.iter_mut().enumerate() {
+                            *p = fine.cell_center(i, jf, kf);
+                        }
+                        f.eval_batch(points, values);
                         let cells = &mut sums[(jf / refine) * nx..][..nx];
-                        for (s, sub) in cells.iter_mut().zip(row.chunks_exact(refine)) {
+                        for (s, sub) in cells.iter_mut().zip(values.chunks_exact(refine)) {
                             for &v in sub {
                                 *s += v as f64;
                             }
