@@ -102,7 +102,7 @@ use rustdct::{DctPlanner, Dst1, TransformType2And3};
 
 use crate::domain::Domain;
 use crate::error::InputError;
-use crate::grid::face::{BoxKind, FaceGrid, Real};
+use crate::grid::face::{subtract_difference, BoxKind, FaceGrid, Real};
 use crate::grid::ScalarGrid;
 
 pub mod obstacles;
@@ -303,15 +303,6 @@ fn subtract_gradient_slab(
     }
     if let Some(below) = below {
         subtract_difference(w, p, below, s);
-    }
-}
-
-/// `o_i −= s (hi_i − lo_i)` in f64, rounded once per value (over the
-/// shortest of the three).
-#[inline]
-fn subtract_difference(o: &mut [f32], hi: &[f64], lo: &[f64], s: f64) {
-    for ((o, &a), &b) in o.iter_mut().zip(hi).zip(lo) {
-        *o = (*o as f64 - s * (a - b)) as f32;
     }
 }
 

@@ -689,9 +689,6 @@ impl FaceGrid {
         let s = scale / self.domain.cell as f64;
         let closed = self.kind == BoxKind::Closed;
         let slab = nx * ny;
-        let sub = |o: &mut f32, hi: T, lo: T| {
-            *o = (*o as f64 - s * (hi.to_f64() - lo.to_f64())) as f32;
-        };
         // u: along each x-row.
         let mx = self.dims[0][0];
         self.slice_mut(0)
@@ -700,11 +697,9 @@ impl FaceGrid {
             .for_each(|(us, ps)| {
                 for (ur, pr) in us.chunks_exact_mut(mx).zip(ps.chunks_exact(nx)) {
                     if !closed {
-                        sub(&mut ur[0], pr[0], pr[nx - 1]);
+                        subtract_difference(&mut ur[..1], &pr[..1], &pr[nx - 1..], s);
                     }
-                    for i in 1..nx {
-                        sub(&mut ur[i], pr[i], pr[i - 1]);
-                    }
+                    subtract_difference(&mut ur[1..nx], &pr[1..], pr, s);
                 }
             });
         // v: row j against row j − 1 within each z-slab.
@@ -719,9 +714,7 @@ impl FaceGrid {
                     }
                     let jl = if j == 0 { ny - 1 } else { j - 1 };
                     let (hi, lo) = (&ps[j * nx..][..nx], &ps[jl * nx..][..nx]);
-                    for ((o, &a), &b) in vs[j * nx..][..nx].iter_mut().zip(hi).zip(lo) {
-                        sub(o, a, b);
-                    }
+                    subtract_difference(&mut vs[j * nx..][..nx], hi, lo, s);
                 }
             });
         // w: slab k against slab k − 1.
@@ -733,10 +726,7 @@ impl FaceGrid {
                     return;
                 }
                 let kl = if k == 0 { nz - 1 } else { k - 1 };
-                let (hi, lo) = (&p[k * slab..][..slab], &p[kl * slab..][..slab]);
-                for ((o, &a), &b) in ws.iter_mut().zip(hi).zip(lo) {
-                    sub(o, a, b);
-                }
+                subtract_difference(ws, &p[k * slab..][..slab], &p[kl * slab..][..slab], s);
             });
     }
 
@@ -793,6 +783,17 @@ pub(crate) fn compact_divergence(u: [f32; 2], v: [f32; 2], w: [f32; 2], inv: f64
 }
 
 /// f32 or f64 cell data for the operators (arithmetic is done in f64).
+/// `o_i −= s (hi_i − lo_i)` in f64, rounded once per value (over the
+/// shortest of the three): a row of the compact gradient's subtraction,
+/// `u −= s G p` ([`FaceGrid::subtract_gradient`], and the periodic
+/// projection's slab kernel in [`crate::pressure`]).
+#[inline]
+pub(crate) fn subtract_difference<T: Real>(o: &mut [f32], hi: &[T], lo: &[T], s: f64) {
+    for ((o, &a), &b) in o.iter_mut().zip(hi).zip(lo) {
+        *o = (*o as f64 - s * (a.to_f64() - b.to_f64())) as f32;
+    }
+}
+
 pub(crate) trait Real: Copy + Send + Sync {
     fn from_f64(v: f64) -> Self;
     fn to_f64(self) -> f64;
