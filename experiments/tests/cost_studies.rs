@@ -2,8 +2,9 @@
 //! flow, 6 frames, 64×48 images): memory is *measured* (heap high-water
 //! mark, `smokelab_app::memory`) and must grow by about one velocity grid
 //! per gridless frame and stay flat for SELMA; render work must grow with
-//! the gridless chain (07-10: the walk steps counted; 08-2: render time)
-//! and not with SELMA's frames.
+//! the gridless chain (the walk steps counted) and not with SELMA's frames.
+//! Render times are asserted on the committed default-size studies
+//! (`provenance.rs`), not here.
 //!
 //! One test in this binary: the measurements are process-wide, so nothing
 //! else may run beside them.
@@ -43,12 +44,6 @@ const C: Criteria = Criteria {
 
 fn growth(points: &[(f64, f64)], what: &str) -> Growth {
     classify(points, &C).unwrap_or_else(|| panic!("{what}: no fit of {points:?}"))
-}
-
-/// Mean of the last three points over the mean of the first three.
-fn late_over_early(points: &[(f64, f64)]) -> f64 {
-    let mean = |p: &[(f64, f64)]| p.iter().map(|p| p.1).sum::<f64>() / p.len() as f64;
-    mean(&points[points.len() - 3..]) / mean(&points[..3])
 }
 
 fn run(dir: &Path, id: &str) -> Vec<HashMap<String, String>> {
@@ -152,21 +147,18 @@ fn measured_memory_grows_one_grid_per_gridless_frame_and_is_flat_for_selma() {
     // SELMA^fine holds a map eight times as large: measured 5.5× the heap.
     let fine_over = at("selma-fine", "heap_peak_bytes") / at("selma", "heap_peak_bytes");
     assert!(fine_over > 4.0, "selma-fine/selma heap {fine_over}");
-    // Render time: the gridless chain's grows (measured 4.4× late over
-    // early, r² 0.99), SELMA's does not (measured 0.64–1.0×); after all
-    // frames gridless is the slowest (measured 5–10× SELMA).
-    let gl = series(&t, "gridless", "render_seconds");
-    let g = growth(&gl, "gridless time");
-    assert!(
-        late_over_early(&gl) > 2.0 && g.r2 > 0.8,
-        "gridless time {gl:?}: {g:?}"
-    );
+    // The render work, counted (time is wall time on a shared machine: a
+    // CI run under load measured SELMA's last render at 2.4× its first; the
+    // time fits are asserted on the committed default-size study,
+    // `provenance.rs`): the gridless chain walks k steps per point mapped,
+    // exactly k × the one-frame count; SELMA walks none at any k.
+    let walk = series(&t, "gridless", "walk_steps");
+    assert!(walk[1].1 > 0.0, "gridless walks: {walk:?}");
+    for &(k, steps) in &walk {
+        assert_eq!(steps, k * walk[1].1, "gridless walk steps {walk:?}");
+    }
     for name in ["selma", "selma-fine"] {
-        let s = series(&t, name, "render_seconds");
-        assert!(late_over_early(&s) < 2.0, "{name} time {s:?}");
-        assert!(
-            at("gridless", "render_seconds") > 2.0 * s[6].1,
-            "{name}: {s:?}"
-        );
+        let s = series(&t, name, "walk_steps");
+        assert!(s.iter().all(|p| p.1 == 0.0), "{name} walks: {s:?}");
     }
 }

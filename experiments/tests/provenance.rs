@@ -77,3 +77,43 @@ fn committed_07_10_rss_grows_one_velocity_grid_per_frame() {
         }
     }
 }
+
+/// The committed 08-2 (`experiment all`): the render time of the gridless
+/// chain grows linearly with its frames (measured r² 0.9988, ×1.76 of the
+/// mean over the frames), SELMA's and SELMA^fine's stay flat (measured
+/// +3.0 % and −1.5 %), and after all frames gridless is the slowest
+/// (measured 11× SELMA). Wall time, fitted by the experiment on an idle
+/// machine; asserted here on the committed study, not timed in a test.
+#[test]
+fn committed_08_2_render_time_grows_with_the_gridless_chain_only() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../results/08-2");
+    let rows = table(&dir.join("summary.csv"));
+    let fit = |name: &str| {
+        rows.iter()
+            .find(|r| r["series"] == name && r["quantity"] == "render_seconds")
+            .unwrap_or_else(|| panic!("08-2: no {name} render_seconds row"))
+    };
+    let g = fit("gridless");
+    assert!(
+        g["trend"] == "linear" && num(g, "r2") > 0.99 && num(g, "relative_growth") > 1.0,
+        "gridless render time: {g:?}"
+    );
+    let data = table(&dir.join("data.csv"));
+    let last = |name: &str| {
+        data.iter()
+            .filter(|r| r["series"] == name)
+            .max_by(|a, b| num(a, "frames").total_cmp(&num(b, "frames")))
+            .map(|r| num(r, "render_seconds"))
+            .unwrap_or_else(|| panic!("08-2: no {name} rows"))
+    };
+    for name in ["selma", "selma-fine"] {
+        let s = fit(name);
+        assert_eq!(s["trend"], "flat", "{name} render time: {s:?}");
+        assert!(
+            last("gridless") > 2.0 * last(name),
+            "after all frames, gridless {} s against {name} {} s",
+            last("gridless"),
+            last(name)
+        );
+    }
+}
