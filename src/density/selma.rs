@@ -449,10 +449,10 @@ impl SelmaMap {
         // Up to NODE_GROUP nodes moved in place, on the stack.
         let track = |ys: &mut [Vec3]| {
             let n = ys.len();
-            let mut c = [[0.0f32; NODE_GROUP]; 3];
-            grid_lanes(&vd, ys, c.each_mut().map(|c| &mut c[..n]));
-            let g0: [Vec3; NODE_GROUP] =
-                std::array::from_fn(|l| Vec3::new(c[0][l], c[1][l], c[2][l]));
+            let mut g0 = [Vec3::ZERO; NODE_GROUP];
+            for (g, &y) in g0.iter_mut().zip(&*ys) {
+                *g = vd.grid_coords(y);
+            }
             let mut g = g0;
             departure_points(u, &mut g[..n], -dt_cells, bt);
             for _ in 0..FORWARD_ITERATIONS {
