@@ -24,7 +24,7 @@
 //!
 //! # With obstacles: the walk's volume
 //! With walls ([`GridlessField::set_walls`]) each sample is weighted by the
-//! volume factor of the walk so far, `J = Π j_k` (`PastStep::volume_factor`,
+//! volume factor of the walk so far, `J = Π j_k` (`PastStep::scale_volumes`,
 //! the Jacobian of `B_k` from the divergence of the velocity interpolant):
 //!
 //! ```text
@@ -43,8 +43,8 @@
 //! 200 (32³, SL; 98.4 % kept with the factor). Without obstacles the plain
 //! chain keeps its injection within 2 % (`tests/density.rs`) and is left
 //! as the notes have it. The positions are walked as without the factor
-//! (the AVX2 kernel included); the factor is scalar: the midpoint velocity
-//! and the interpolant's divergence there
+//! (the AVX2 kernel included); the factor takes the midpoint velocities in
+//! a batch and the interpolant's divergence there, point by point
 //! ([`crate::grid::face::FaceSampler::divergence_at`]) per point and step.
 //!
 //! # One walk for several gases
@@ -95,7 +95,7 @@ impl PastStep {
 
 impl PastStep {
     /// The volume factor `j = det ∂B/∂x` of this step's backward map at
-    /// grid point `g`, from the divergence of the velocity interpolant at
+    /// each grid point `x` of `g`, multiplied into `volume`, from the divergence of the velocity interpolant at
     /// the backtrace's midpoint (its start for Euler):
     ///
     /// ```text
@@ -109,15 +109,22 @@ impl PastStep {
     /// centres is not: at an obstacle's stagnating underside it is what
     /// loses the walks their way to the source (README, "Exact obstacles,
     /// measured").
-    fn volume_factor(&self, d: &Domain, g: Vec3) -> f32 {
+    ///
+    /// The midpoints' velocities come in one batch ([`FaceGrid::sample_grid_points`], the
+    /// same bits as the point query), into the scratch `u`.
+    fn scale_volumes(&self, d: &Domain, g: &[Vec3], volume: &mut [f32], u: &mut Vec<Vec3>) {
         let dt_cells = self.dt / d.cell;
         let s = self.velocity.sampler();
-        let mid = match self.backtrace {
-            Backtrace::Euler => g,
-            Backtrace::Rk2 | Backtrace::Rk3 => g - 0.5 * dt_cells * s.at(g),
-        };
-        let a = (dt_cells * s.divergence_at(mid)).clamp(-1.0, 1.0);
-        (1.0 - 0.5 * a) / (1.0 + 0.5 * a)
+        let euler = self.backtrace == Backtrace::Euler;
+        u.resize(g.len(), Vec3::ZERO);
+        if !euler {
+            self.velocity.sample_grid_points(g, u);
+        }
+        for ((v, &gi), &ui) in volume.iter_mut().zip(g).zip(u.iter()) {
+            let mid = if euler { gi } else { gi - 0.5 * dt_cells * ui };
+            let a = (dt_cells * s.divergence_at(mid)).clamp(-1.0, 1.0);
+            *v *= (1.0 - 0.5 * a) / (1.0 + 0.5 * a);
+        }
     }
 }
 
@@ -299,6 +306,7 @@ impl GridlessField {
         // With obstacles, the volume carried along each walk (module
         // documentation); without, 1.
         let mut volume = vec![1.0f32; points.len()];
+        let mut velocity = Vec::new();
         for out in outs.iter_mut() {
             out.fill(0.0);
         }
@@ -327,9 +335,7 @@ impl GridlessField {
         for step in first.steps.iter().rev() {
             add(&g, &|f| f.source.as_ref(), step.dt, &volume);
             if first.walls.is_some() {
-                for (v, &gi) in volume.iter_mut().zip(&g) {
-                    *v *= step.volume_factor(d, gi);
-                }
+                step.scale_volumes(d, &g, &mut volume, &mut velocity);
             }
             step.walk_back(d, &mut g);
         }
