@@ -390,11 +390,10 @@ impl Simulation {
     }
 
     /// Evaluate gridless and SELMA densities at the cell centres, the input
-    /// of the buoyancy force (gridded densities already live there).
+    /// of the buoyancy force (gridded densities already live there); the
+    /// gridless gases walk back once for all ([`DensityModel::evaluate_all`]).
     pub fn evaluate_densities(&mut self) {
-        for gas in &mut self.gases {
-            gas.model.evaluate_centres();
-        }
+        DensityModel::evaluate_all(self.gases.iter_mut().map(|g| &mut g.model));
     }
 
     /// Bytes held by the density representations of all gases, each shared

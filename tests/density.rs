@@ -620,3 +620,92 @@ fn every_mode_runs_and_its_field_snapshot_matches_its_cell_centres() {
         assert_eq!(eval(&*before, &p), v0, "{mode}: snapshot changed");
     }
 }
+
+/// Every cell centre of `d`, `[z][y][x]`.
+fn centres(d: &Domain) -> Vec<Vec3> {
+    let mut all = Vec::with_capacity(d.len());
+    let mut slab = Vec::new();
+    for k in 0..d.dims[2] {
+        d.slab_centers(k, &mut slab);
+        all.extend_from_slice(&slab);
+    }
+    all
+}
+
+/// Each gridless model's cell centres are, to the bit, its own field's
+/// walk from every centre at once ([`GridlessField`]'s `eval_batch`).
+fn assert_own_walk(models: &[&DensityModel], case: &str) {
+    for (n, model) in models.iter().enumerate() {
+        let DensityModel::Gridless(g) = model else {
+            panic!("{case}: not gridless")
+        };
+        let d = *g.density().domain();
+        let own = eval(g.field(), &centres(&d));
+        let shared = g.density().as_slice();
+        let differ = own
+            .iter()
+            .zip(shared)
+            .filter(|(a, b)| a.to_bits() != b.to_bits());
+        assert_eq!(
+            differ.count(),
+            0,
+            "{case}: gas {n} differs from its own walk"
+        );
+        // Guard: all-zero caches would make the comparison vacuous.
+        assert!(g.density().total() > 0.0, "{case}: gas {n} is empty");
+    }
+}
+
+/// One walk for all gridless gases ([`DensityModel::evaluate_all`], what
+/// [`smokelab::simulation::Simulation::evaluate_densities`] calls) gives
+/// each gas the bits of a walk of its own: the two gases of a hot/cold run
+/// (different sources, one shared history), and, with obstacles (the volume
+/// factor), two gases sharing walls beside a third without, which walks
+/// another way ([`GridlessField::same_walk`]) and so alone.
+#[test]
+fn one_walk_for_all_gridless_gases_gives_each_gas_its_own_walks_bits() {
+    let sim = common::hot_cold_after(16, 12, DensityMode::Gridless);
+    let (hot, cold) = (&sim.gases[0].model, &sim.gases[1].model);
+    assert!(
+        hot.density().as_slice() != cold.density().as_slice(),
+        "hot = cold"
+    );
+    assert_own_walk(&[hot, cold], "hot/cold");
+
+    let u = abc_grid(16);
+    let d = *u.domain();
+    let ball = smokelab::field::ops::sphere(Vec3::new(3.0, 3.0, 4.5), 0.8);
+    let walls = Arc::new(smokelab::boundary::WallStop::new(ScalarGrid::from_field(
+        d, &*ball,
+    )));
+    let options = DensityOptions::mode(DensityMode::Gridless);
+    let blob: Scalar = Arc::new(Blob);
+    let mut models = [
+        DensityModel::new(
+            &options,
+            d,
+            Some(Arc::clone(&blob)),
+            Some(Arc::clone(&blob)),
+        ),
+        DensityModel::new(
+            &options,
+            d,
+            Some(Arc::clone(&blob)),
+            Some(Arc::clone(&blob)),
+        ),
+        DensityModel::new(&options, d, None, Some(blob)),
+    ];
+    models[0].set_walls(&walls);
+    models[2].set_walls(&walls);
+    for model in &mut models {
+        run_model(model, &u, 8, 0.1);
+    }
+    DensityModel::evaluate_all(&mut models);
+    let [a, b, c] = &models;
+    // The same gas with and without walls: the walls are in the walk.
+    assert!(
+        a.density().as_slice() != b.density().as_slice(),
+        "walls changed nothing"
+    );
+    assert_own_walk(&[a, b, c], "walls");
+}

@@ -24,7 +24,7 @@
 //!
 //! # With obstacles: the walk's volume
 //! With walls ([`GridlessField::set_walls`]) each sample is weighted by the
-//! volume factor of the walk so far, `J = Π j_k` (`PastStep::volume_factor`,
+//! volume factor of the walk so far, `J = Π j_k` (`PastStep::scale_volumes`,
 //! the Jacobian of `B_k` from the divergence of the velocity interpolant):
 //!
 //! ```text
@@ -43,9 +43,18 @@
 //! 200 (32³, SL; 98.4 % kept with the factor). Without obstacles the plain
 //! chain keeps its injection within 2 % (`tests/density.rs`) and is left
 //! as the notes have it. The positions are walked as without the factor
-//! (the AVX2 kernel included); the factor is scalar: the midpoint velocity
-//! and the interpolant's divergence there
+//! (the AVX2 kernel included); the factor takes the midpoint velocities in
+//! a batch and the interpolant's divergence there, point by point
 //! ([`crate::grid::face::FaceSampler::divergence_at`]) per point and step.
+//!
+//! # One walk for several gases
+//! The positions and `J` depend only on the start points, the velocity
+//! history and the walls, which the gases of a simulation share (one
+//! [`Arc`]'d snapshot per step). [`GridlessField::eval_batch_shared`] walks
+//! once and lets each gas add its own `S Δt` and `ρ₀` along the walk, and
+//! [`Gridless::evaluate_group`] evaluates all gases' cell centres so — the
+//! per-gas operations in the per-gas order, so each gas gets the bits of a
+//! walk of its own (`tests/density.rs`).
 //!
 //! Cost: memory grows by one velocity grid per step, and so does the cost of
 //! every query — including the buoyancy term, which evaluates the density at
@@ -58,6 +67,7 @@ use crate::density::BackwardMap;
 use std::sync::Arc;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::{wrap_grid, Buffer, StepInput};
 use crate::advection::{departure_points_wrapped, Backtrace};
@@ -85,7 +95,7 @@ impl PastStep {
 
 impl PastStep {
     /// The volume factor `j = det ∂B/∂x` of this step's backward map at
-    /// grid point `g`, from the divergence of the velocity interpolant at
+    /// each grid point `x` of `g`, multiplied into `volume`, from the divergence of the velocity interpolant at
     /// the backtrace's midpoint (its start for Euler):
     ///
     /// ```text
@@ -99,15 +109,22 @@ impl PastStep {
     /// centres is not: at an obstacle's stagnating underside it is what
     /// loses the walks their way to the source (README, "Exact obstacles,
     /// measured").
-    fn volume_factor(&self, d: &Domain, g: Vec3) -> f32 {
+    ///
+    /// The midpoints' velocities come in one batch ([`FaceGrid::sample_grid_points`], the
+    /// same bits as the point query), into the scratch `u`.
+    fn scale_volumes(&self, d: &Domain, g: &[Vec3], volume: &mut [f32], u: &mut Vec<Vec3>) {
         let dt_cells = self.dt / d.cell;
         let s = self.velocity.sampler();
-        let mid = match self.backtrace {
-            Backtrace::Euler => g,
-            Backtrace::Rk2 | Backtrace::Rk3 => g - 0.5 * dt_cells * s.at(g),
-        };
-        let a = (dt_cells * s.divergence_at(mid)).clamp(-1.0, 1.0);
-        (1.0 - 0.5 * a) / (1.0 + 0.5 * a)
+        let euler = self.backtrace == Backtrace::Euler;
+        u.resize(g.len(), Vec3::ZERO);
+        if !euler {
+            self.velocity.sample_grid_points(g, u);
+        }
+        for ((v, &gi), &ui) in volume.iter_mut().zip(g).zip(u.iter()) {
+            let mid = if euler { gi } else { gi - 0.5 * dt_cells * ui };
+            let a = (dt_cells * s.divergence_at(mid)).clamp(-1.0, 1.0);
+            *v *= (1.0 - 0.5 * a) / (1.0 + 0.5 * a);
+        }
     }
 }
 
@@ -223,8 +240,63 @@ impl ScalarField for GridlessField {
     }
 
     fn eval_batch(&self, points: &[Vec3], out: &mut [f32]) {
-        assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
-        let d = &self.domain;
+        Self::eval_batch_shared(&[self], points, &mut [out]);
+    }
+}
+
+impl GridlessField {
+    /// Whether `other` walks back the same way as `self`: the same domain,
+    /// the same stored steps (the same shared velocity grids, Δt and
+    /// backtraces) and the same walls — the walk's positions and volume
+    /// depend on nothing else, so two such fields can share one walk
+    /// ([`Self::eval_batch_shared`]).
+    pub fn same_walk(&self, other: &GridlessField) -> bool {
+        let same_step = |a: &PastStep, b: &PastStep| {
+            Arc::ptr_eq(&a.velocity, &b.velocity)
+                && a.dt.to_bits() == b.dt.to_bits()
+                && a.backtrace == b.backtrace
+        };
+        let same_walls = match (&self.walls, &other.walls) {
+            (None, None) => true,
+            (Some(a), Some(b)) => Arc::ptr_eq(a, b),
+            _ => false,
+        };
+        self.domain == other.domain
+            && self.steps.len() == other.steps.len()
+            && self
+                .steps
+                .iter()
+                .zip(&other.steps)
+                .all(|(a, b)| same_step(a, b))
+            && same_walls
+    }
+
+    /// [`ScalarField::eval_batch`] of every field of `fields` at the same
+    /// `points` into `outs[f]`, with one walk (module documentation): the
+    /// positions and the volume factor are computed once, and each field
+    /// adds its own source `S Δt` along the walk and its `ρ₀` at the end —
+    /// per field the same operations in the same order as a walk of its
+    /// own, so the same bits.
+    ///
+    /// # Panics
+    /// If `fields` is empty, a field does not walk as the first
+    /// ([`Self::same_walk`]), or the slices differ in length.
+    pub fn eval_batch_shared(fields: &[&GridlessField], points: &[Vec3], outs: &mut [&mut [f32]]) {
+        let first = fields.first().expect("eval_batch_shared: no fields");
+        assert!(
+            fields.iter().all(|f| first.same_walk(f)),
+            "eval_batch_shared: the fields walk different histories"
+        );
+        assert_eq!(
+            fields.len(),
+            outs.len(),
+            "eval_batch_shared: one output per field"
+        );
+        assert!(
+            outs.iter().all(|o| o.len() == points.len()),
+            "eval_batch_shared: slice lengths differ"
+        );
+        let d = &first.domain;
         let mut g: Vec<Vec3> = points
             .iter()
             .map(|&p| wrap_grid(d.grid_coords(p), d.dims))
@@ -234,37 +306,46 @@ impl ScalarField for GridlessField {
         // With obstacles, the volume carried along each walk (module
         // documentation); without, 1.
         let mut volume = vec![1.0f32; points.len()];
-        out.fill(0.0);
-        for step in self.steps.iter().rev() {
-            if let Some(source) = &self.source {
-                for (w, &gi) in world.iter_mut().zip(&g) {
-                    *w = d.world_of(gi);
+        let mut velocity = Vec::new();
+        for out in outs.iter_mut() {
+            out.fill(0.0);
+        }
+        // Add `scale · term(x) · J` of each field's `term` (its source or
+        // its ρ₀) at the walk's current points `x` into its output; the
+        // world points are computed once for all fields.
+        let mut add = |g: &[Vec3],
+                       term: &dyn Fn(&GridlessField) -> Option<&Scalar>,
+                       scale: f32,
+                       volume: &[f32]| {
+            let mut world_done = false;
+            for (field, out) in fields.iter().zip(outs.iter_mut()) {
+                let Some(term) = term(field) else { continue };
+                if !world_done {
+                    for (w, &gi) in world.iter_mut().zip(g) {
+                        *w = d.world_of(gi);
+                    }
+                    world_done = true;
                 }
-                source.eval_batch(&world, &mut values);
-                for ((o, s), v) in out.iter_mut().zip(&values).zip(&volume) {
-                    *o += s * step.dt * v;
+                term.eval_batch(&world, &mut values);
+                for ((o, s), v) in out.iter_mut().zip(&values).zip(volume) {
+                    *o += s * scale * v;
                 }
             }
-            if self.walls.is_some() {
-                for (v, &gi) in volume.iter_mut().zip(&g) {
-                    *v *= step.volume_factor(d, gi);
-                }
+        };
+        for step in first.steps.iter().rev() {
+            add(&g, &|f| f.source.as_ref(), step.dt, &volume);
+            if first.walls.is_some() {
+                step.scale_volumes(d, &g, &mut volume, &mut velocity);
             }
             step.walk_back(d, &mut g);
         }
-        if let Some(initial) = &self.initial {
-            for (w, &gi) in world.iter_mut().zip(&g) {
-                *w = d.world_of(gi);
-            }
-            initial.eval_batch(&world, &mut values);
-            for ((o, r), v) in out.iter_mut().zip(&values).zip(&volume) {
-                *o += r * v;
-            }
-        }
-        if let Some(w) = &self.walls {
-            for (o, &p) in out.iter_mut().zip(points) {
-                if w.inside_world(p) {
-                    *o = 0.0;
+        add(&g, &|f| f.initial.as_ref(), 1.0, &volume);
+        if let Some(w) = &first.walls {
+            for (p, i) in points.iter().zip(0..) {
+                if w.inside_world(*p) {
+                    for out in outs.iter_mut() {
+                        out[i] = 0.0;
+                    }
                 }
             }
         }
@@ -305,7 +386,31 @@ impl Gridless {
 
     /// Walk back from every cell centre (the buoyancy input).
     pub fn evaluate_centres(&mut self) {
-        self.centres.write_field(&self.field);
+        Self::evaluate_group(&mut [self]);
+    }
+
+    /// [`Self::evaluate_centres`] for every gas of `gases`: the gases that
+    /// walk the same history ([`GridlessField::same_walk`] — in a simulation,
+    /// all of them: they share its velocity snapshots) with one walk per
+    /// z-slab of cell centres ([`GridlessField::eval_batch_shared`]), in
+    /// parallel slabs; the same bits as evaluating each gas alone.
+    pub fn evaluate_group(gases: &mut [&mut Gridless]) {
+        // The first gas of each group of the same walk leads it.
+        let mut lead = Vec::with_capacity(gases.len());
+        for n in 0..gases.len() {
+            let shared =
+                (0..n).find(|&m| lead[m] == m && gases[m].field.same_walk(&gases[n].field));
+            lead.push(shared.unwrap_or(n));
+        }
+        for group in 0..gases.len() {
+            if lead[group] == group {
+                let mut members: Vec<&mut Gridless> = (gases.iter_mut().zip(&lead))
+                    .filter(|(_, &l)| l == group)
+                    .map(|(g, _)| &mut **g)
+                    .collect();
+                write_centres(&mut members);
+            }
+        }
     }
 
     /// The density at the cell centres as of the last [`Self::evaluate_centres`].
@@ -349,6 +454,30 @@ impl Gridless {
         }
         self.centres = centres;
     }
+}
+
+/// The cell-centre caches of `gases`, which walk the same history, from one
+/// walk per z-slab.
+fn write_centres(gases: &mut [&mut Gridless]) {
+    let domain = *gases[0].centres.domain();
+    let slab = domain.dims[0] * domain.dims[1];
+    let (fields, mut chunks): (Vec<&GridlessField>, Vec<_>) = gases
+        .iter_mut()
+        .map(|g| (&g.field, g.centres.as_slice_mut().chunks_mut(slab)))
+        .unzip();
+    let slabs: Vec<Vec<&mut [f32]>> = (0..domain.dims[2])
+        .map(|_| {
+            let next = chunks.iter_mut().map(|c| c.next());
+            next.map(|s| s.expect("one slab per z")).collect()
+        })
+        .collect();
+    slabs
+        .into_par_iter()
+        .enumerate()
+        .for_each_init(Vec::new, |points, (k, mut outs)| {
+            domain.slab_centers(k, points);
+            GridlessField::eval_batch_shared(&fields, points, &mut outs);
+        });
 }
 
 /// One stored step of a gridless history: its velocity grid (shared between

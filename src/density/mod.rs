@@ -389,6 +389,20 @@ impl DensityModel {
         }
     }
 
+    /// [`Self::evaluate_centres`] for every gas; the gridless gases
+    /// together ([`Gridless::evaluate_group`]), with one walk for those that
+    /// share their velocity history.
+    pub fn evaluate_all<'a>(gases: impl IntoIterator<Item = &'a mut DensityModel>) {
+        let mut gridless = Vec::new();
+        for model in gases {
+            match model {
+                DensityModel::Gridless(g) => gridless.push(g),
+                other => other.evaluate_centres(),
+            }
+        }
+        Gridless::evaluate_group(&mut gridless);
+    }
+
     /// The density at the velocity grid's cell centres, as of the last
     /// [`Self::evaluate_centres`] (gridded: the representation itself).
     pub fn density(&self) -> &ScalarGrid {

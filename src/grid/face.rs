@@ -528,13 +528,27 @@ impl FaceGrid {
     /// # Panics
     /// If `points` and `out` differ in length.
     pub fn sample_points(&self, points: &[Vec3], out: &mut [Vec3]) {
+        self.sample_mapped(points, out, |p| self.domain.grid_coords(p));
+    }
+
+    /// [`Self::sample_points`] at cell-centre grid coordinates (as
+    /// [`FaceGrid::sample_grid_coords`]).
+    ///
+    /// # Panics
+    /// If `g` and `out` differ in length.
+    pub fn sample_grid_points(&self, g: &[Vec3], out: &mut [Vec3]) {
+        self.sample_mapped(g, out, |g| g);
+    }
+
+    /// [`FaceSampler::at`] at `g(p)` for each of `points`, batched as
+    /// [`Self::sample_points`] says.
+    fn sample_mapped(&self, points: &[Vec3], out: &mut [Vec3], g: impl Fn(Vec3) -> Vec3) {
         assert_eq!(
             points.len(),
             out.len(),
             "sample_points: slice lengths differ"
         );
         let s = self.sampler();
-        let g = |p: Vec3| self.domain.grid_coords(p);
         let mut done = 0;
         if let Some(lat) = crate::advection::simd::lattices(s) {
             for (p, o) in points.chunks_exact(8).zip(out.chunks_exact_mut(8)) {
