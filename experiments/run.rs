@@ -36,7 +36,7 @@ use crate::export::{write_frame_formats, FrameVolumes};
 use crate::frames::{FrameRecord, FrameRender};
 use crate::table::{field_names, Log};
 use smokelab::density::probe::{DensityMeasures, DensityProbe};
-use smokelab::density::DensityMode;
+use smokelab::density::{DensityMode, DensityModel};
 use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::io::vdb::VolumeGeometry;
 use smokelab::io::vtk::PvdCollection;
@@ -182,14 +182,15 @@ impl StepMeasures {
 }
 
 /// The measures taken every `metrics_every` steps: each gas sampled at 2×
-/// and measured by `probe`, and the top-octave share of the kinetic energy
+/// and measured by `probe` (gridless gases with one walk for all), and the top-octave share of the kinetic energy
 /// (NaN in a closed box, where the periodic spectrum is not defined).
 pub fn fine_measures(
     sim: &Simulation,
     probe: &mut DensityProbe,
     spectrum: &mut SpectralShare,
 ) -> (Vec<DensityMeasures>, f64) {
-    let measures = sim.gases.iter().map(|g| probe.measure(&g.model)).collect();
+    let models: Vec<&DensityModel> = sim.gases.iter().map(|g| &g.model).collect();
+    let measures = probe.measure_all(&models);
     let ke_top_octave = if sim.velocity.kind() == BoxKind::Periodic {
         metrics::top_octave_share(spectrum, &sim.velocity)
     } else {

@@ -14,7 +14,7 @@ use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use smokelab::advection::{self, departure_point, Backtrace, Departures, Scheme};
-use smokelab::density::probe::integral;
+use smokelab::density::probe::{integral, DensityMeasures, DensityProbe};
 use smokelab::density::{DensityMode, DensityModel, DensityOptions, GridlessField, StepInput};
 use smokelab::domain::Domain;
 use smokelab::field::{Scalar, ScalarField, VectorField};
@@ -708,4 +708,52 @@ fn one_walk_for_all_gridless_gases_gives_each_gas_its_own_walks_bits() {
         "walls changed nothing"
     );
     assert_own_walk(&[a, b, c], "walls");
+}
+
+/// The fine measures of gridless gases sampled together
+/// ([`DensityProbe::measure_all`], one walk for those sharing a history)
+/// are, to the bit, those of each gas sampled alone
+/// ([`DensityProbe::measure`]): two gridless gases of different initial
+/// densities with a gridded one between them (each result in its model's
+/// place).
+#[test]
+fn gridless_gases_measured_together_give_each_gas_its_own_measures() {
+    let u = abc_grid(16);
+    let d = *u.domain();
+    let blob: Scalar = Arc::new(Blob);
+    let mode = |m| DensityOptions::mode(m);
+    let mut models = [
+        DensityModel::new(
+            &mode(DensityMode::Gridless),
+            d,
+            Some(Arc::clone(&blob)),
+            Some(Arc::clone(&blob)),
+        ),
+        DensityModel::new(
+            &mode(DensityMode::Gridded),
+            d,
+            Some(Arc::clone(&blob)),
+            None,
+        ),
+        DensityModel::new(&mode(DensityMode::Gridless), d, None, Some(blob)),
+    ];
+    for model in &mut models {
+        run_model(model, &u, 8, 0.1);
+    }
+    let models: Vec<&DensityModel> = models.iter().collect();
+    let mut probe = DensityProbe::new(d);
+    let alone: Vec<DensityMeasures> = models.iter().map(|m| probe.measure(m)).collect();
+    let together = probe.measure_all(&models);
+    let bits = |m: &DensityMeasures| {
+        [m.mass, m.max, m.mean_gradient, m.subgrid_fraction].map(f64::to_bits)
+    };
+    assert_eq!(together.len(), 3);
+    for (n, (a, t)) in alone.iter().zip(&together).enumerate() {
+        assert_eq!(bits(a), bits(t), "gas {n}: {a:?} alone, {t:?} together");
+        assert!(a.mass > 0.0, "gas {n} is empty");
+    }
+    // Guard: distinct gases, so a swap would show.
+    for (m, n) in [(0, 1), (0, 2), (1, 2)] {
+        assert_ne!(bits(&alone[m]), bits(&alone[n]), "gases {m} and {n}");
+    }
 }

@@ -395,22 +395,9 @@ impl Gridless {
     /// z-slab of cell centres ([`GridlessField::eval_batch_shared`]), in
     /// parallel slabs; the same bits as evaluating each gas alone.
     pub fn evaluate_group(gases: &mut [&mut Gridless]) {
-        // The first gas of each group of the same walk leads it.
-        let mut lead = Vec::with_capacity(gases.len());
-        for n in 0..gases.len() {
-            let shared =
-                (0..n).find(|&m| lead[m] == m && gases[m].field.same_walk(&gases[n].field));
-            lead.push(shared.unwrap_or(n));
-        }
-        for group in 0..gases.len() {
-            if lead[group] == group {
-                let mut members: Vec<&mut Gridless> = (gases.iter_mut().zip(&lead))
-                    .filter(|(_, &l)| l == group)
-                    .map(|(g, _)| &mut **g)
-                    .collect();
-                write_centres(&mut members);
-            }
-        }
+        let (fields, mut centres): (Vec<_>, Vec<_>) =
+            gases.iter_mut().map(|g| (&g.field, &mut g.centres)).unzip();
+        write_grouped(&fields, &mut centres);
     }
 
     /// The density at the cell centres as of the last [`Self::evaluate_centres`].
@@ -456,15 +443,20 @@ impl Gridless {
     }
 }
 
-/// The cell-centre caches of `gases`, which walk the same history, from one
-/// walk per z-slab.
-fn write_centres(gases: &mut [&mut Gridless]) {
-    let domain = *gases[0].centres.domain();
+/// `grids[f] = fields[f]` at the cell centres of the grids (one domain),
+/// from one walk per z-slab: the fields walk alike
+/// ([`GridlessField::eval_batch_shared`]).
+fn write_shared(fields: &[&GridlessField], grids: &mut [&mut ScalarGrid]) {
+    let domain = *grids[0].domain();
+    assert!(
+        grids.iter().all(|g| *g.domain() == domain),
+        "gridless: the grids of a shared walk are on one domain"
+    );
     let slab = domain.dims[0] * domain.dims[1];
-    let (fields, mut chunks): (Vec<&GridlessField>, Vec<_>) = gases
+    let mut chunks: Vec<_> = grids
         .iter_mut()
-        .map(|g| (&g.field, g.centres.as_slice_mut().chunks_mut(slab)))
-        .unzip();
+        .map(|g| g.as_slice_mut().chunks_mut(slab))
+        .collect();
     let slabs: Vec<Vec<&mut [f32]>> = (0..domain.dims[2])
         .map(|_| {
             let next = chunks.iter_mut().map(|c| c.next());
@@ -476,8 +468,28 @@ fn write_centres(gases: &mut [&mut Gridless]) {
         .enumerate()
         .for_each_init(Vec::new, |points, (k, mut outs)| {
             domain.slab_centers(k, points);
-            GridlessField::eval_batch_shared(&fields, points, &mut outs);
+            GridlessField::eval_batch_shared(fields, points, &mut outs);
         });
+}
+
+/// `grids[f] = fields[f]` at the cell centres of the grids (one domain),
+/// one walk per group of fields that walk alike ([`GridlessField::same_walk`]).
+pub(super) fn write_grouped(fields: &[&GridlessField], grids: &mut [&mut ScalarGrid]) {
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (n, f) in fields.iter().enumerate() {
+        match groups.iter_mut().find(|g| fields[g[0]].same_walk(f)) {
+            Some(g) => g.push(n),
+            None => groups.push(vec![n]),
+        }
+    }
+    for group in groups {
+        let members: Vec<&GridlessField> = group.iter().map(|&n| fields[n]).collect();
+        let mut targets: Vec<&mut ScalarGrid> = (grids.iter_mut().enumerate())
+            .filter(|(n, _)| group.contains(n))
+            .map(|(_, g)| &mut **g)
+            .collect();
+        write_shared(&members, &mut targets);
+    }
 }
 
 /// One stored step of a gridless history: its velocity grid (shared between

@@ -423,6 +423,28 @@ impl DensityModel {
         }
     }
 
+    /// [`Self::sample`] of every model into its grid (`grids[n]` for
+    /// `models[n]`, one domain); gridless models that walk alike walk once
+    /// for all ([`GridlessField::same_walk`]), each with its own bits.
+    ///
+    /// # Panics
+    /// If the slices differ in length or the grids in domain.
+    pub fn sample_all(models: &[&DensityModel], grids: &mut [&mut ScalarGrid]) {
+        assert_eq!(models.len(), grids.len(), "sample_all: one grid per model");
+        let mut gridless = Vec::new();
+        let mut targets = Vec::new();
+        for (model, grid) in models.iter().zip(grids.iter_mut()) {
+            match model {
+                DensityModel::Gridless(g) => {
+                    gridless.push(g.field());
+                    targets.push(&mut **grid);
+                }
+                other => other.sample(grid),
+            }
+        }
+        gridless::write_grouped(&gridless, &mut targets);
+    }
+
     /// An immutable snapshot of the current density as a field (for
     /// renderers): later steps do not change it.
     pub fn field(&self) -> Scalar {

@@ -29,7 +29,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::DensityModel;
+use super::{DensityMode, DensityModel};
 use crate::domain::Domain;
 use crate::field::ScalarField;
 use crate::grid::ScalarGrid;
@@ -56,6 +56,8 @@ pub struct DensityMeasures {
 pub struct DensityProbe {
     coarse: Domain,
     fine: ScalarGrid,
+    /// Further fine grids for [`Self::measure_all`], made when first needed.
+    more: Vec<ScalarGrid>,
     spectrum: SpectralShare,
 }
 
@@ -66,6 +68,7 @@ impl DensityProbe {
         Self {
             coarse,
             fine: ScalarGrid::zeros(fine),
+            more: Vec::new(),
             spectrum: SpectralShare::new(fine.dims),
         }
     }
@@ -82,13 +85,43 @@ impl DensityProbe {
 
     /// Bytes of the probe's buffers.
     pub fn bytes(&self) -> usize {
-        std::mem::size_of_val(self.fine.as_slice()) + self.spectrum.bytes()
+        let grids = std::iter::once(&self.fine).chain(&self.more);
+        grids
+            .map(|g| std::mem::size_of_val(g.as_slice()))
+            .sum::<usize>()
+            + self.spectrum.bytes()
     }
 
     /// Sample `model` on the fine grid and measure it.
     pub fn measure(&mut self, model: &DensityModel) -> DensityMeasures {
         model.sample(&mut self.fine);
         self.measure_sampled()
+    }
+
+    /// [`Self::measure`] of every model, sampled together
+    /// ([`DensityModel::sample_all`]: gridless gases that share their
+    /// velocity history walk back once), so with one fine grid per model
+    /// when more than one is gridless; the same values as one by one.
+    pub fn measure_all(&mut self, models: &[&DensityModel]) -> Vec<DensityMeasures> {
+        let gridless = models
+            .iter()
+            .filter(|m| m.mode() == DensityMode::Gridless)
+            .count();
+        if gridless < 2 {
+            return models.iter().map(|m| self.measure(m)).collect();
+        }
+        let domain = *self.fine.domain();
+        self.more
+            .resize_with(models.len() - 1, || ScalarGrid::zeros(domain));
+        let mut grids: Vec<&mut ScalarGrid> = std::iter::once(&mut self.fine)
+            .chain(&mut self.more)
+            .collect();
+        DensityModel::sample_all(models, &mut grids);
+        let (coarse, spectrum) = (&self.coarse, &mut self.spectrum);
+        std::iter::once(&self.fine)
+            .chain(&self.more)
+            .map(|g| measure_sampled(g, coarse, spectrum))
+            .collect()
     }
 
     /// Sample any field on the fine grid and measure it.
@@ -98,14 +131,22 @@ impl DensityProbe {
     }
 
     fn measure_sampled(&mut self) -> DensityMeasures {
-        DensityMeasures {
-            mass: self.fine.total(),
-            max: self.fine.max_abs() as f64,
-            mean_gradient: mean_gradient(&self.fine),
-            subgrid_fraction: self
-                .spectrum
-                .share_above(&[self.fine.as_slice()], self.coarse.dims.map(|n| n / 2)),
-        }
+        measure_sampled(&self.fine, &self.coarse, &mut self.spectrum)
+    }
+}
+
+/// The measures of a density sampled on `fine`, the velocity grid `coarse`
+/// refined [`REFINE`] times.
+fn measure_sampled(
+    fine: &ScalarGrid,
+    coarse: &Domain,
+    spectrum: &mut SpectralShare,
+) -> DensityMeasures {
+    DensityMeasures {
+        mass: fine.total(),
+        max: fine.max_abs() as f64,
+        mean_gradient: mean_gradient(fine),
+        subgrid_fraction: spectrum.share_above(&[fine.as_slice()], coarse.dims.map(|n| n / 2)),
     }
 }
 
