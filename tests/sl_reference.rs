@@ -11,9 +11,10 @@
 //!
 //! Each test runs on a box whose rows are shorter than sixteen (the AVX2
 //! kernels, eight lanes) and one whose rows are longer (on a CPU with
-//! AVX-512F, the sixteen-lane kernels: whole rows, the velocities at faces
-//! and cells away from the box's faces by vector loads, stencils near them
-//! wrapped or clamped in the lanes).
+//! AVX-512F, the sixteen-lane kernels: the velocities at faces and cells by
+//! vector loads in every row, those at the box's faces from wrapped or
+//! clamped neighbour rows; stencils near them wrapped or clamped in the
+//! lanes).
 
 use glam::Vec3;
 use smokelab::advection::{

@@ -510,27 +510,32 @@ fn row_points(f: [usize; 3], face: Option<usize>) -> [__m512; 3] {
 }
 
 /// The velocity at the sixteen faces `(i, j, k) … (i + 15, j, k)` of
-/// component `A` as `FaceSampler::at_face` finds it away from the box's
-/// faces: its own value, each other component the mean of four faces.
+/// component `A` as `FaceSampler::at_face` finds it: its own value, each
+/// other component `b` the mean of four faces, read in its order from
+/// `around[b]`, the linear indices of lane 0's four faces
+/// (`FaceSampler::face_neighbours`, wrapped or clamped there), lane `l`'s
+/// `l` values on.
 ///
-/// The caller keeps `1 ≤ i`, `i + 16 ≤ n_x − 1`, `1 ≤ j ≤ n_y − 2` and
-/// `1 ≤ k ≤ n_z − 2` (`n` the cell counts), where no face wraps; otherwise
-/// the values are not the faces' (or, past the lattice, it panics).
+/// The caller keeps `1 ≤ i` and `i + 16 ≤ n_x − 1` (`n_x` the cells along
+/// x), where no lane's faces wrap or clamp along x, so each lane's are
+/// lane 0's shifted by its offset; otherwise the values are not the faces'
+/// (or, past the lattice, it panics).
 #[inline]
 #[target_feature(enable = "avx512f")]
-fn face_velocities16<const A: usize>(vel: Lattices, f: [usize; 3]) -> [__m512; 3] {
+fn face_velocities16<const A: usize>(
+    vel: Lattices,
+    f: [usize; 3],
+    around: &[[usize; 4]; 3],
+) -> [__m512; 3] {
     let mut u = [_mm512_setzero_ps(); 3];
     for (b, ub) in u.iter_mut().enumerate() {
-        let d = vel.dims[b];
-        let here = (f[2] * d[1] + f[1]) * d[0] + f[0];
         if b == A {
-            *ub = load16_at(vel.data[b], here);
+            let d = vel.dims[b];
+            *ub = load16_at(vel.data[b], (f[2] * d[1] + f[1]) * d[0] + f[0]);
             continue;
         }
-        let strides = [1, d[0], d[0] * d[1]];
-        let (sa, sb) = (strides[A], strides[b]);
         let mut sum = _mm512_setzero_ps();
-        for p in [here - sa, here - sa + sb, here, here + sb] {
+        for p in around[b] {
             sum = _mm512_add_ps(sum, load16_at(vel.data[b], p));
         }
         *ub = _mm512_mul_ps(_mm512_set1_ps(0.25), sum);
@@ -539,29 +544,29 @@ fn face_velocities16<const A: usize>(vel: Lattices, f: [usize; 3]) -> [__m512; 3
 }
 
 /// The velocity at the sixteen cell centres `(i, j, k) … (i + 15, j, k)` as
-/// `FaceSampler::at_cell` finds it where no face wraps: per component the
-/// mean of the cell's two faces, in its order.
+/// `FaceSampler::at_cell` finds it: per component `a` the mean of the
+/// cell's two faces, read in its order from `faces[a]`, the linear indices
+/// of lane 0's (`FaceSampler::cell_faces`, the upper wrapped there), lane
+/// `l`'s `l` values on.
 ///
-/// The caller keeps every cell's upper face inside its lattice (`i + 16 <
-/// mx` of `u`, `j + 1 < my` of `v`, `k + 1 < mz` of `w`); otherwise the
-/// values are not the cells' (or, past the lattice, it panics).
+/// The caller keeps every cell's upper x-face inside `u`'s lattice (`i + 16
+/// < mx`), where no lane's wraps; otherwise the values are not the cells'
+/// (or, past the lattice, it panics).
 #[inline]
 #[target_feature(enable = "avx512f")]
-fn cell_velocities16(vel: Lattices, f: [usize; 3]) -> [__m512; 3] {
+fn cell_velocities16(vel: Lattices, faces: &[[usize; 2]; 3]) -> [__m512; 3] {
     let mut u = [_mm512_setzero_ps(); 3];
     for (a, ua) in u.iter_mut().enumerate() {
-        let d = vel.dims[a];
-        let here = (f[2] * d[1] + f[1]) * d[0] + f[0];
-        let up = here + [1, d[0], d[0] * d[1]][a];
-        let sum = _mm512_add_ps(load16_at(vel.data[a], here), load16_at(vel.data[a], up));
+        let [lo, hi] = faces[a];
+        let sum = _mm512_add_ps(load16_at(vel.data[a], lo), load16_at(vel.data[a], hi));
         *ua = _mm512_mul_ps(_mm512_set1_ps(0.5), sum);
     }
     u
 }
 
 /// The faces `(i, j, k) … (i + 15, j, k)` of component `A`, whose
-/// velocities are `u0` (`None`: away from the box's faces, where
-/// [`face_velocities16`] finds them): `data` (laid out like component `A`'s lattice) at
+/// velocities [`face_velocities16`] finds from `around` (the caller keeps
+/// its bounds on `i`): `data` (laid out like component `A`'s lattice) at
 /// each face's departure point through `vel` over `dt_cells = Δt/Δx`
 /// (stencils wrapped or clamped by `wrap`), into `out`. Returns the lanes
 /// left to the scalar path (bit `l` for lane `l`; those values are
@@ -579,14 +584,11 @@ pub(super) unsafe fn faces16<const A: usize>(
     wrap: Wrap,
     (data, out): (&[f32], &mut [f32]),
     f: [usize; 3],
-    u0: Option<&[[f32; 16]; 3]>,
+    around: &[[usize; 4]; 3],
     (dt_cells, backtrace): (f32, Backtrace),
 ) -> u32 {
     let c = row_points(f, Some(A));
-    let u0 = match u0 {
-        Some(u0) => u0.map(|u| load16(&u)),
-        None => face_velocities16::<A>(vel, f),
-    };
+    let u0 = face_velocities16::<A>(vel, f, around);
     // SAFETY: as this function's.
     let (mut g, traced) = unsafe { trace16(vel, wrap, c, u0, dt_cells, backtrace) };
     g[A] = _mm512_add_ps(g[A], _mm512_set1_ps(0.5));
@@ -597,8 +599,8 @@ pub(super) unsafe fn faces16<const A: usize>(
 }
 
 /// The departure points of the cell centres `(i, j, k) … (i + 15, j, k)`,
-/// whose velocities are `u0` (`None`: where no face wraps, and
-/// [`cell_velocities16`] finds them), traced back through `vel` over `dt_cells =
+/// whose velocities [`cell_velocities16`] finds from `faces` (the caller
+/// keeps its bound on `i`), traced back through `vel` over `dt_cells =
 /// Δt/Δx` (Euler or RK2; stencils wrapped or clamped by `wrap`), into
 /// `out = [x, y, z]` (sixteen each). Returns the lanes left to the scalar
 /// path (their points meaningless).
@@ -614,15 +616,12 @@ pub(super) unsafe fn cells16(
     vel: Lattices,
     wrap: Wrap,
     f: [usize; 3],
-    u0: Option<&[[f32; 16]; 3]>,
+    faces: &[[usize; 2]; 3],
     (dt_cells, backtrace): (f32, Backtrace),
     out: [&mut [f32]; 3],
 ) -> u32 {
     let c = row_points(f, None);
-    let u0 = match u0 {
-        Some(u0) => u0.map(|u| load16(&u)),
-        None => cell_velocities16(vel, f),
-    };
+    let u0 = cell_velocities16(vel, faces);
     // SAFETY: as this function's.
     let (g, done) = unsafe { trace16(vel, wrap, c, u0, dt_cells, backtrace) };
     for (o, v) in out.into_iter().zip(g) {
