@@ -441,10 +441,7 @@ pub fn advect_fused(
         |points, (k, mut outs)| {
             for j in 0..ny {
                 trace.row(j, k, points);
-                for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
-                    let out = &mut out[j * nx..(j + 1) * nx];
-                    sample_row(trace.lanes, data, (d.dims, wrap), points, out);
-                }
+                sample_rows(trace.lanes, (&src, d.dims), points, (&mut outs, j * nx));
             }
         },
     );
@@ -607,6 +604,57 @@ fn sample_row(
     }
     for i in (0..covered.start).chain(covered.end..out.len()) {
         out[i] = scalar(i);
+    }
+}
+
+/// [`sample_row`] for every grid of `src` (cell-centred grids of `cells`)
+/// at the same row of points, into `outs[n][at..at + n_x]`: with sixteen
+/// lanes and several grids, each group's corners found once for all of
+/// them ([`simd512::sample16_grids`]) where every stencil is inside, the
+/// grids one by one ([`simd512::sample16`]) elsewhere and the row's ends
+/// by the scalar path; else [`sample_row`] per grid.
+fn sample_rows(
+    lanes: Lanes,
+    (src, cells): (&[(&[f32], Wrap)], [usize; 3]),
+    points: &[Vec<f32>; 3],
+    (outs, at): (&mut [&mut [f32]], usize),
+) {
+    let nx = cells[0];
+    #[cfg(target_arch = "x86_64")]
+    if lanes == Lanes::Sixteen && nx >= 18 {
+        if let (Ok(two), Ok([a, b])) = (
+            <&[_; 2]>::try_from(src),
+            <&mut [_; 2]>::try_from(&mut *outs),
+        ) {
+            let datas = two.map(|(data, _)| data);
+            let [px, py, pz] = points;
+            let covered = 1..nx - 1;
+            for i in group_starts(covered.clone(), 16) {
+                let g = [&px[i..], &py[i..], &pz[i..]];
+                let outs = [&mut **a, &mut **b];
+                // SAFETY: AVX-512F and a grid that fits (`Lanes::widest`).
+                if unsafe { simd512::sample16_grids(datas, cells, g, (outs, at + i)) } {
+                    continue;
+                }
+                for (&(data, wrap), out) in two.iter().zip([&mut **a, &mut **b]) {
+                    let out = &mut out[at + i..];
+                    // SAFETY: as above.
+                    let left = unsafe { simd512::sample16(data, (cells, wrap), g, out) };
+                    for n in lanes_in(left) {
+                        out[n] = Stencil::new(point(points, i + n), cells, wrap).apply(data);
+                    }
+                }
+            }
+            for (&(data, wrap), out) in two.iter().zip([a, b]) {
+                for i in (0..covered.start).chain(covered.end..nx) {
+                    out[at + i] = Stencil::new(point(points, i), cells, wrap).apply(data);
+                }
+            }
+            return;
+        }
+    }
+    for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
+        sample_row(lanes, data, (cells, wrap), points, &mut out[at..at + nx]);
     }
 }
 
