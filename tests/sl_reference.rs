@@ -11,9 +11,10 @@
 //!
 //! Each test runs on a box whose rows are shorter than sixteen (the AVX2
 //! kernels, eight lanes) and one whose rows are longer (on a CPU with
-//! AVX-512F, the sixteen-lane kernels: whole rows, the velocities at faces
-//! and cells away from the box's faces by vector loads, stencils near them
-//! wrapped or clamped in the lanes).
+//! AVX-512F, the sixteen-lane kernels: the velocities at faces and cells by
+//! vector loads in every row, those at the box's faces from wrapped or
+//! clamped neighbour rows; stencils near them wrapped or clamped in the
+//! lanes).
 
 use glam::Vec3;
 use smokelab::advection::{
@@ -176,7 +177,9 @@ fn cell_departures_match_the_general_stencil() {
 /// box kind, speed and backtrace. Rows of 12 and 37 cells exercise full
 /// groups of eight or sixteen, the overlapping last group and the box's
 /// edges; the fast speed sends many departure points across the seam or
-/// into the walls.
+/// into the walls. With sixteen lanes the two densities share each
+/// group's corners where every stencil is inside, and fall back one by one
+/// where not.
 #[test]
 fn fused_densities_match_the_scalar_sweep_to_the_bit() {
     for (d, (kind, speed)) in boxes([[12, 11, 10], [37, 11, 10]]) {

@@ -310,30 +310,31 @@ fn face_sweep<const A: usize>(
         .enumerate()
         .for_each(|(k, slab)| {
             for (j, row) in slab.chunks_exact_mut(dims[0]).enumerate() {
-                // Groups of sixteen (the last overlapping its predecessor):
-                // away from the box's faces faces 1 … n_x − 2, their
-                // velocities by vector loads, and the row's ends one by one;
-                // near them whole rows, the face velocities one by one. The
-                // lanes the kernel leaves, one by one.
+                // Faces 1 … n_x − 2 in groups of sixteen (the last
+                // overlapping its predecessor), their velocities by vector
+                // loads from lane 0's neighbours (wrapped or clamped along y
+                // and z as `at_face` does), and the row's ends one by one.
+                // The lanes the kernel leaves, one by one.
                 #[cfg(target_arch = "x86_64")]
                 if let Some(lat) = sixteen {
-                    let no_wrap = (1..cells[1] - 1).contains(&j) && (1..cells[2] - 1).contains(&k);
-                    let covered = if no_wrap {
-                        1..cells[0] - 1
-                    } else {
-                        0..row.len()
+                    let covered = 1..cells[0] - 1;
+                    // Face (1, j, k)'s neighbours; face i's are i − 1 on.
+                    let first = |b| match b == A {
+                        true => [0; 4],
+                        false => vel.face_neighbours(A, b, [1, j, k]),
                     };
+                    let first = [first(0), first(1), first(2)];
                     for i in group_starts(covered.clone(), 16) {
                         let f = [i, j, k];
-                        let u0 = (!no_wrap).then(|| vectors16(|n| vel.at_face(A, [i + n, j, k])));
+                        let around = first.map(|p| p.map(|p| p + i - 1));
                         // SAFETY: AVX-512F (`sixteen`), lattice sizes checked
                         // by simd::lattices, `data` has A's lattice length
-                        // (asserted above); where `u0` is `None` no face
-                        // wraps (1 ≤ i, i + 16 ≤ n_x − 1, j and k inside).
+                        // (asserted above); 1 ≤ i, i + 16 ≤ n_x − 1, so no
+                        // lane's faces wrap along x (`face_velocities16`).
                         let left = unsafe {
                             let dst = (data, &mut row[i..]);
                             let trace = (dt_cells, backtrace);
-                            simd512::faces16::<A>(lat, wrap, dst, f, u0.as_ref(), trace)
+                            simd512::faces16::<A>(lat, wrap, dst, f, &around, trace)
                         };
                         for n in lanes_in(left) {
                             row[i + n] = scalar([i + n, j, k]);
@@ -440,10 +441,7 @@ pub fn advect_fused(
         |points, (k, mut outs)| {
             for j in 0..ny {
                 trace.row(j, k, points);
-                for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
-                    let out = &mut out[j * nx..(j + 1) * nx];
-                    sample_row(trace.lanes, data, (d.dims, wrap), points, out);
-                }
+                sample_rows(trace.lanes, (&src, d.dims), points, (&mut outs, j * nx));
             }
         },
     );
@@ -503,27 +501,25 @@ impl<'a> RowTrace<'a> {
             .simd
             .filter(|_| self.lanes == Lanes::Sixteen && nx >= 18)
         {
-            // Groups of sixteen (the last overlapping its predecessor):
-            // where no face wraps the cells whose upper faces are inside
-            // the lattices, their velocities by vector loads, and the rest
-            // of the row one by one; else whole rows, the cell velocities
-            // one by one. The lanes the kernel leaves, one by one.
-            let no_wrap = j + 1 < lat.dims[1][1] && k + 1 < lat.dims[2][2];
-            let covered = if no_wrap {
-                0..(lat.dims[0][0] - 1).min(nx)
-            } else {
-                0..nx
-            };
+            // Groups of sixteen (the last overlapping its predecessor): the
+            // cells whose upper x-faces are inside u's lattice, their
+            // velocities by vector loads from lane 0's faces (the upper y-
+            // and z-faces wrapped as `at_cell` does), and the rest of the
+            // row one by one. The lanes the kernel leaves, one by one.
+            let covered = 0..(lat.dims[0][0] - 1).min(nx);
+            // Cell (0, j, k)'s faces; cell i's are i on.
+            let first = |a| self.sampler.cell_faces(a, [0, j, k]);
+            let first = [first(0), first(1), first(2)];
             for i in group_starts(covered.clone(), 16) {
                 let f = [i, j, k];
-                let u0 = (!no_wrap).then(|| vectors16(|n| self.sampler.at_cell([i + n, j, k])));
+                let faces = first.map(|p| p.map(|p| p + i));
                 let [px, py, pz] = &mut *points;
                 let out = [&mut px[i..], &mut py[i..], &mut pz[i..]];
                 let trace = (self.dt_cells, self.backtrace);
                 // SAFETY: AVX-512F (`Lanes::widest`), lattice sizes checked
-                // by simd::lattices; where `u0` is `None` no face wraps
-                // (i + 16 < m_x of u, j and k as checked).
-                let left = unsafe { simd512::cells16(lat, self.wrap, f, u0.as_ref(), trace, out) };
+                // by simd::lattices; i + 16 < m_x of u, so no lane's upper
+                // x-face wraps (`cell_velocities16`).
+                let left = unsafe { simd512::cells16(lat, self.wrap, f, &faces, trace, out) };
                 for n in lanes_in(left) {
                     set_point(points, i + n, scalar(i + n));
                 }
@@ -611,6 +607,57 @@ fn sample_row(
     }
 }
 
+/// [`sample_row`] for every grid of `src` (cell-centred grids of `cells`)
+/// at the same row of points, into `outs[n][at..at + n_x]`: with sixteen
+/// lanes and several grids, each group's corners found once for all of
+/// them ([`simd512::sample16_grids`]) where every stencil is inside, the
+/// grids one by one ([`simd512::sample16`]) elsewhere and the row's ends
+/// by the scalar path; else [`sample_row`] per grid.
+fn sample_rows(
+    lanes: Lanes,
+    (src, cells): (&[(&[f32], Wrap)], [usize; 3]),
+    points: &[Vec<f32>; 3],
+    (outs, at): (&mut [&mut [f32]], usize),
+) {
+    let nx = cells[0];
+    #[cfg(target_arch = "x86_64")]
+    if lanes == Lanes::Sixteen && nx >= 18 {
+        if let (Ok(two), Ok([a, b])) = (
+            <&[_; 2]>::try_from(src),
+            <&mut [_; 2]>::try_from(&mut *outs),
+        ) {
+            let datas = two.map(|(data, _)| data);
+            let [px, py, pz] = points;
+            let covered = 1..nx - 1;
+            for i in group_starts(covered.clone(), 16) {
+                let g = [&px[i..], &py[i..], &pz[i..]];
+                let outs = [&mut **a, &mut **b];
+                // SAFETY: AVX-512F and a grid that fits (`Lanes::widest`).
+                if unsafe { simd512::sample16_grids(datas, cells, g, (outs, at + i)) } {
+                    continue;
+                }
+                for (&(data, wrap), out) in two.iter().zip([&mut **a, &mut **b]) {
+                    let out = &mut out[at + i..];
+                    // SAFETY: as above.
+                    let left = unsafe { simd512::sample16(data, (cells, wrap), g, out) };
+                    for n in lanes_in(left) {
+                        out[n] = Stencil::new(point(points, i + n), cells, wrap).apply(data);
+                    }
+                }
+            }
+            for (&(data, wrap), out) in two.iter().zip([a, b]) {
+                for i in (0..covered.start).chain(covered.end..nx) {
+                    out[at + i] = Stencil::new(point(points, i), cells, wrap).apply(data);
+                }
+            }
+            return;
+        }
+    }
+    for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
+        sample_row(lanes, data, (cells, wrap), points, &mut out[at..at + nx]);
+    }
+}
+
 /// The widest vector kernels a sweep runs: sixteen lanes (AVX-512F), eight
 /// (AVX2) or one (the scalar path).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -643,14 +690,6 @@ impl Lanes {
 #[cfg(target_arch = "x86_64")]
 fn lanes_in(mask: u32) -> impl Iterator<Item = usize> {
     (0..32).filter(move |l| mask & (1 << l) != 0)
-}
-
-/// Sixteen velocities `f(0) … f(15)` as `[x, y, z]` lanes, for the
-/// sixteen-lane kernels.
-#[cfg(target_arch = "x86_64")]
-fn vectors16(f: impl Fn(usize) -> Vec3) -> [[f32; 16]; 3] {
-    let v: [Vec3; 16] = std::array::from_fn(f);
-    std::array::from_fn(|a| std::array::from_fn(|l| v[l][a]))
 }
 
 /// `first..end` if it holds a group of eight, else `0..0`: the points of a

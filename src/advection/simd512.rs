@@ -5,9 +5,9 @@
 //! - The grid sweeps: sixteen consecutive faces of one x-row ([`faces16`])
 //!   or sixteen cell centres ([`cells16`]) traced back together (Euler or
 //!   RK2) and interpolated at their departure points ([`faces16`],
-//!   [`sample16`]), every stencil inside its lattice; near the box's faces
-//!   the same with stencils wrapped or clamped ([`faces16_wrapped`],
-//!   [`cells16_wrapped`], [`sample16_wrapped`]).
+//!   [`sample16`]; several densities at the same points through shared
+//!   corners, [`sample16_grids`]), stencils inside their lattice by
+//!   [`trilinear16`], others wrapped or clamped by [`stencil16`].
 //! - Arbitrary points: [`points16`], one backward step of the gridless walk
 //!   and SELMA's map.
 //!
@@ -83,6 +83,27 @@ fn add_row(acc: __m512, wx: [__m512; 2], wy: __m512, wz: __m512, v: [__m512; 2])
     for (wx, v) in wx.into_iter().zip(v) {
         let weight = _mm512_mul_ps(_mm512_mul_ps(wx, wy), wz);
         acc = _mm512_add_ps(acc, _mm512_mul_ps(weight, v));
+    }
+    acc
+}
+
+/// [`add_row`] for `N` grids at once: each weight product found once and
+/// added to every grid's sum, in [`add_row`]'s order per grid.
+#[inline]
+#[target_feature(enable = "avx512f")]
+fn add_rows<const N: usize>(
+    acc: [__m512; N],
+    wx: [__m512; 2],
+    wy: __m512,
+    wz: __m512,
+    v: [[__m512; 2]; N],
+) -> [__m512; N] {
+    let mut acc = acc;
+    for (cx, wx) in wx.into_iter().enumerate() {
+        let weight = _mm512_mul_ps(_mm512_mul_ps(wx, wy), wz);
+        for (acc, v) in acc.iter_mut().zip(&v) {
+            *acc = _mm512_add_ps(*acc, _mm512_mul_ps(weight, v[cx]));
+        }
     }
     acc
 }
@@ -185,25 +206,33 @@ impl Window {
     }
 }
 
-/// Trilinear interpolation of `data` (lattice `d`) at lattice coordinates
-/// `g` in sixteen lanes, and the lanes whose stencil lies inside the
-/// lattice; if any lane's does not, the value is meaningless (the caller
-/// redoes the group by the wrapping path). Corners, weights and sum in
-/// `simd::trilinear8`'s order (the scalar `trilinear_inside`'s).
+/// Trilinear interpolation of `N` grids laid out like one lattice `d`
+/// (`datas`, of one length) at lattice coordinates `g` in sixteen lanes,
+/// and the lanes whose stencil lies inside the lattice; if any lane's does
+/// not, the values are meaningless (the caller redoes the group by the
+/// wrapping path). Corners, weights and sum in `simd::trilinear8`'s order
+/// (the scalar `trilinear_inside`'s) for each grid; the floors, windows
+/// and weights are found once for all of them.
 ///
 /// # Safety
-/// `data.len() ≥ mx·my·mz < 2³⁰`, every `m ≥ 2` (`simd::lattices`), and the
-/// CPU has AVX-512F.
+/// Every `data.len() ≥ mx·my·mz < 2³⁰` and equal, every `m ≥ 2`
+/// (`simd::lattices`), and the CPU has AVX-512F.
 #[inline]
 #[target_feature(enable = "avx512f")]
-unsafe fn trilinear16(data: &[f32], d: [usize; 3], g: [__m512; 3]) -> (__m512, __mmask16) {
+unsafe fn trilinear16<const N: usize>(
+    datas: [&[f32]; N],
+    d: [usize; 3],
+    g: [__m512; 3],
+) -> ([__m512; N], __mmask16) {
     let (x, tx, okx) = floor_inside16(g[0], d[0]);
     let (y, ty, oky) = floor_inside16(g[1], d[1]);
     let (z, tz, okz) = floor_inside16(g[2], d[2]);
     let ok = okx & oky & okz;
+    let mut acc = [_mm512_setzero_ps(); N];
     if ok != 0xffff {
-        return (_mm512_setzero_ps(), ok);
+        return (acc, ok);
     }
+    let len = datas[0].len();
     let (nx, nxy) = (d[0] as i32, (d[0] * d[1]) as i32);
     // Each lane's first corner row; the others are the same shifts on.
     let row = _mm512_mullo_epi32(
@@ -213,22 +242,15 @@ unsafe fn trilinear16(data: &[f32], d: [usize; 3], g: [__m512; 3]) -> (__m512, _
     let shifts = [0, nx, nxy, nx + nxy].map(|s| s as usize);
     let xs = [x, _mm512_add_epi32(x, _mm512_set1_epi32(1))];
     let (wx, wy, wz) = (weights(tx), weights(ty), weights(tz));
-    let mut acc = _mm512_setzero_ps();
     // The usual case: every lane in lane 0's row and one window.
-    let all = Window::new(
-        data.len(),
-        (row, xs),
-        (first(row), first(x)),
-        0xffff,
-        shifts[3],
-    );
+    let all = Window::new(len, (row, xs), (first(row), first(x)), 0xffff, shifts[3]);
     if let Some(w) = all.filter(|w| w.lanes == 0xffff) {
-        // SAFETY (all four): every shift is at most `shifts[3]`, the
-        // window's `last_shift`.
-        acc = add_row(acc, wx, wy[0], wz[0], unsafe { w.fetch(data, shifts[0]) });
-        acc = add_row(acc, wx, wy[1], wz[0], unsafe { w.fetch(data, shifts[1]) });
-        acc = add_row(acc, wx, wy[0], wz[1], unsafe { w.fetch(data, shifts[2]) });
-        acc = add_row(acc, wx, wy[1], wz[1], unsafe { w.fetch(data, shifts[3]) });
+        for (c, &shift) in shifts.iter().enumerate() {
+            // SAFETY: `shift ≤ shifts[3]`, the window's `last_shift`; every
+            // grid has its length.
+            let v = datas.map(|data| unsafe { w.fetch(data, shift) });
+            acc = add_rows(acc, wx, wy[c & 1], wz[c >> 1], v);
+        }
         return (acc, ok);
     }
     // Otherwise a window for each of the first `WINDOWS` rows the lanes
@@ -244,34 +266,38 @@ unsafe fn trilinear16(data: &[f32], d: [usize; 3], g: [__m512; 3]) -> (__m512, _
     for w in &mut windows {
         let l = left.trailing_zeros() as usize;
         // Lane `l` is always in its own window (its x0 is at offset ≤ 8).
-        *w = Window::new(data.len(), (row, xs), (rows[l], x0s[l]), left, shifts[3]);
+        *w = Window::new(len, (row, xs), (rows[l], x0s[l]), left, shifts[3]);
         left &= !w.map_or(0, |w| w.lanes);
         if w.is_none() || left == 0 {
             break;
         }
     }
     for (c, &shift) in shifts.iter().enumerate() {
-        let mut v = [_mm512_setzero_ps(); 2];
-        for w in windows.iter().flatten() {
-            // SAFETY: `shift ≤ shifts[3]`, the window's `last_shift`.
-            let [v0, v1] = unsafe { w.fetch(data, shift) };
-            v = [
-                _mm512_mask_mov_ps(v[0], w.lanes, v0),
-                _mm512_mask_mov_ps(v[1], w.lanes, v1),
-            ];
-        }
-        if left != 0 {
-            let at = _mm512_add_epi32(_mm512_add_epi32(row, x), _mm512_set1_epi32(shift as i32));
-            // SAFETY: every lane is inside (`ok`): x ≤ mx − 2, y ≤ my − 2,
-            // z ≤ mz − 2, so the pair at its index in any corner row ends
-            // inside `data`; indices are below 2³⁰.
-            let [v0, v1] = unsafe { x_pairs16(data, at, left) };
-            v = [
-                _mm512_mask_mov_ps(v[0], left, v0),
-                _mm512_mask_mov_ps(v[1], left, v1),
-            ];
-        }
-        acc = add_row(acc, wx, wy[c & 1], wz[c >> 1], v);
+        let v = datas.map(|data| {
+            let mut v = [_mm512_setzero_ps(); 2];
+            for w in windows.iter().flatten() {
+                // SAFETY: `shift ≤ shifts[3]`, the window's `last_shift`.
+                let [v0, v1] = unsafe { w.fetch(data, shift) };
+                v = [
+                    _mm512_mask_mov_ps(v[0], w.lanes, v0),
+                    _mm512_mask_mov_ps(v[1], w.lanes, v1),
+                ];
+            }
+            if left != 0 {
+                let at =
+                    _mm512_add_epi32(_mm512_add_epi32(row, x), _mm512_set1_epi32(shift as i32));
+                // SAFETY: every lane is inside (`ok`): x ≤ mx − 2, y ≤ my − 2,
+                // z ≤ mz − 2, so the pair at its index in any corner row ends
+                // inside `data`; indices are below 2³⁰.
+                let [v0, v1] = unsafe { x_pairs16(data, at, left) };
+                v = [
+                    _mm512_mask_mov_ps(v[0], left, v0),
+                    _mm512_mask_mov_ps(v[1], left, v1),
+                ];
+            }
+            v
+        });
+        acc = add_rows(acc, wx, wy[c & 1], wz[c >> 1], v);
     }
     (acc, ok)
 }
@@ -391,7 +417,7 @@ unsafe fn velocity16(vel: Lattices, wrap: Wrap, g: [__m512; 3]) -> ([__m512; 3],
     let mut inside = true;
     for (b, ub) in u.iter_mut().enumerate() {
         // SAFETY: the lattice of b has vel.data[b]'s length (fits).
-        let (v, lanes) = unsafe { trilinear16(vel.data[b], vel.dims[b], at(b)) };
+        let ([v], lanes) = unsafe { trilinear16([vel.data[b]], vel.dims[b], at(b)) };
         *ub = v;
         if lanes != 0xffff {
             inside = false;
@@ -453,7 +479,7 @@ unsafe fn trace16(
 #[target_feature(enable = "avx512f")]
 unsafe fn interpolate16(data: &[f32], d: [usize; 3], wrap: Wrap, g: [__m512; 3]) -> (__m512, u32) {
     // SAFETY (both): as this function's.
-    let (v, inside) = unsafe { trilinear16(data, d, g) };
+    let ([v], inside) = unsafe { trilinear16([data], d, g) };
     if inside == 0xffff {
         return (v, 0xffff);
     }
@@ -510,27 +536,32 @@ fn row_points(f: [usize; 3], face: Option<usize>) -> [__m512; 3] {
 }
 
 /// The velocity at the sixteen faces `(i, j, k) … (i + 15, j, k)` of
-/// component `A` as `FaceSampler::at_face` finds it away from the box's
-/// faces: its own value, each other component the mean of four faces.
+/// component `A` as `FaceSampler::at_face` finds it: its own value, each
+/// other component `b` the mean of four faces, read in its order from
+/// `around[b]`, the linear indices of lane 0's four faces
+/// (`FaceSampler::face_neighbours`, wrapped or clamped there), lane `l`'s
+/// `l` values on.
 ///
-/// The caller keeps `1 ≤ i`, `i + 16 ≤ n_x − 1`, `1 ≤ j ≤ n_y − 2` and
-/// `1 ≤ k ≤ n_z − 2` (`n` the cell counts), where no face wraps; otherwise
-/// the values are not the faces' (or, past the lattice, it panics).
+/// The caller keeps `1 ≤ i` and `i + 16 ≤ n_x − 1` (`n_x` the cells along
+/// x), where no lane's faces wrap or clamp along x, so each lane's are
+/// lane 0's shifted by its offset; otherwise the values are not the faces'
+/// (or, past the lattice, it panics).
 #[inline]
 #[target_feature(enable = "avx512f")]
-fn face_velocities16<const A: usize>(vel: Lattices, f: [usize; 3]) -> [__m512; 3] {
+fn face_velocities16<const A: usize>(
+    vel: Lattices,
+    f: [usize; 3],
+    around: &[[usize; 4]; 3],
+) -> [__m512; 3] {
     let mut u = [_mm512_setzero_ps(); 3];
     for (b, ub) in u.iter_mut().enumerate() {
-        let d = vel.dims[b];
-        let here = (f[2] * d[1] + f[1]) * d[0] + f[0];
         if b == A {
-            *ub = load16_at(vel.data[b], here);
+            let d = vel.dims[b];
+            *ub = load16_at(vel.data[b], (f[2] * d[1] + f[1]) * d[0] + f[0]);
             continue;
         }
-        let strides = [1, d[0], d[0] * d[1]];
-        let (sa, sb) = (strides[A], strides[b]);
         let mut sum = _mm512_setzero_ps();
-        for p in [here - sa, here - sa + sb, here, here + sb] {
+        for p in around[b] {
             sum = _mm512_add_ps(sum, load16_at(vel.data[b], p));
         }
         *ub = _mm512_mul_ps(_mm512_set1_ps(0.25), sum);
@@ -539,29 +570,29 @@ fn face_velocities16<const A: usize>(vel: Lattices, f: [usize; 3]) -> [__m512; 3
 }
 
 /// The velocity at the sixteen cell centres `(i, j, k) … (i + 15, j, k)` as
-/// `FaceSampler::at_cell` finds it where no face wraps: per component the
-/// mean of the cell's two faces, in its order.
+/// `FaceSampler::at_cell` finds it: per component `a` the mean of the
+/// cell's two faces, read in its order from `faces[a]`, the linear indices
+/// of lane 0's (`FaceSampler::cell_faces`, the upper wrapped there), lane
+/// `l`'s `l` values on.
 ///
-/// The caller keeps every cell's upper face inside its lattice (`i + 16 <
-/// mx` of `u`, `j + 1 < my` of `v`, `k + 1 < mz` of `w`); otherwise the
-/// values are not the cells' (or, past the lattice, it panics).
+/// The caller keeps every cell's upper x-face inside `u`'s lattice (`i + 16
+/// < mx`), where no lane's wraps; otherwise the values are not the cells'
+/// (or, past the lattice, it panics).
 #[inline]
 #[target_feature(enable = "avx512f")]
-fn cell_velocities16(vel: Lattices, f: [usize; 3]) -> [__m512; 3] {
+fn cell_velocities16(vel: Lattices, faces: &[[usize; 2]; 3]) -> [__m512; 3] {
     let mut u = [_mm512_setzero_ps(); 3];
     for (a, ua) in u.iter_mut().enumerate() {
-        let d = vel.dims[a];
-        let here = (f[2] * d[1] + f[1]) * d[0] + f[0];
-        let up = here + [1, d[0], d[0] * d[1]][a];
-        let sum = _mm512_add_ps(load16_at(vel.data[a], here), load16_at(vel.data[a], up));
+        let [lo, hi] = faces[a];
+        let sum = _mm512_add_ps(load16_at(vel.data[a], lo), load16_at(vel.data[a], hi));
         *ua = _mm512_mul_ps(_mm512_set1_ps(0.5), sum);
     }
     u
 }
 
 /// The faces `(i, j, k) … (i + 15, j, k)` of component `A`, whose
-/// velocities are `u0` (`None`: away from the box's faces, where
-/// [`face_velocities16`] finds them): `data` (laid out like component `A`'s lattice) at
+/// velocities [`face_velocities16`] finds from `around` (the caller keeps
+/// its bounds on `i`): `data` (laid out like component `A`'s lattice) at
 /// each face's departure point through `vel` over `dt_cells = Δt/Δx`
 /// (stencils wrapped or clamped by `wrap`), into `out`. Returns the lanes
 /// left to the scalar path (bit `l` for lane `l`; those values are
@@ -579,14 +610,11 @@ pub(super) unsafe fn faces16<const A: usize>(
     wrap: Wrap,
     (data, out): (&[f32], &mut [f32]),
     f: [usize; 3],
-    u0: Option<&[[f32; 16]; 3]>,
+    around: &[[usize; 4]; 3],
     (dt_cells, backtrace): (f32, Backtrace),
 ) -> u32 {
     let c = row_points(f, Some(A));
-    let u0 = match u0 {
-        Some(u0) => u0.map(|u| load16(&u)),
-        None => face_velocities16::<A>(vel, f),
-    };
+    let u0 = face_velocities16::<A>(vel, f, around);
     // SAFETY: as this function's.
     let (mut g, traced) = unsafe { trace16(vel, wrap, c, u0, dt_cells, backtrace) };
     g[A] = _mm512_add_ps(g[A], _mm512_set1_ps(0.5));
@@ -597,8 +625,8 @@ pub(super) unsafe fn faces16<const A: usize>(
 }
 
 /// The departure points of the cell centres `(i, j, k) … (i + 15, j, k)`,
-/// whose velocities are `u0` (`None`: where no face wraps, and
-/// [`cell_velocities16`] finds them), traced back through `vel` over `dt_cells =
+/// whose velocities [`cell_velocities16`] finds from `faces` (the caller
+/// keeps its bound on `i`), traced back through `vel` over `dt_cells =
 /// Δt/Δx` (Euler or RK2; stencils wrapped or clamped by `wrap`), into
 /// `out = [x, y, z]` (sixteen each). Returns the lanes left to the scalar
 /// path (their points meaningless).
@@ -614,15 +642,12 @@ pub(super) unsafe fn cells16(
     vel: Lattices,
     wrap: Wrap,
     f: [usize; 3],
-    u0: Option<&[[f32; 16]; 3]>,
+    faces: &[[usize; 2]; 3],
     (dt_cells, backtrace): (f32, Backtrace),
     out: [&mut [f32]; 3],
 ) -> u32 {
     let c = row_points(f, None);
-    let u0 = match u0 {
-        Some(u0) => u0.map(|u| load16(&u)),
-        None => cell_velocities16(vel, f),
-    };
+    let u0 = cell_velocities16(vel, faces);
     // SAFETY: as this function's.
     let (g, done) = unsafe { trace16(vel, wrap, c, u0, dt_cells, backtrace) };
     for (o, v) in out.into_iter().zip(g) {
@@ -658,6 +683,44 @@ pub(super) unsafe fn sample16(
     let (v, done) = unsafe { interpolate16(data, dims, wrap, g) };
     out[..16].copy_from_slice(&lanes16(v));
     !done & 0xffff
+}
+
+/// [`sample16`] for `N` grids of one layout (`datas`, each of `dims` cells
+/// and the same length) at the same sixteen points `g`, into
+/// `outs[n][at..at + 16]`, their corners found once ([`trilinear16`]) —
+/// the same operations per grid as [`sample16`]'s, so the same bits.
+/// Returns whether it wrote them: only when every lane's stencil lies
+/// inside the grid (the caller samples the grids one by one otherwise).
+///
+/// # Safety
+/// The CPU has AVX-512F; `dims` passes `simd::lattices` as a lattice.
+///
+/// # Panics
+/// If the grids' lengths differ or are shorter than `dims`, or a slice of
+/// `g` (of `outs` past `at`) is shorter than sixteen.
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn sample16_grids<const N: usize>(
+    datas: [&[f32]; N],
+    dims: [usize; 3],
+    g: [&[f32]; 3],
+    (outs, at): ([&mut [f32]; N], usize),
+) -> bool {
+    let len = datas.first().map_or(0, |d| d.len());
+    assert!(
+        len >= dims.iter().product::<usize>() && datas.iter().all(|d| d.len() == len),
+        "sample16_grids: data"
+    );
+    let g = g.map(|x| load16(x[..16].try_into().expect("sixteen points")));
+    // SAFETY: every grid covers the lattice with one length (asserted),
+    // which fits (caller).
+    let (v, inside) = unsafe { trilinear16(datas, dims, g) };
+    if inside != 0xffff {
+        return false;
+    }
+    for (out, v) in outs.into_iter().zip(v) {
+        out[at..at + 16].copy_from_slice(&lanes16(v));
+    }
+    true
 }
 
 /// `simd::wrap8` in sixteen lanes (AVX-512).

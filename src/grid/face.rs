@@ -166,11 +166,20 @@ impl<'a> FaceSampler<'a> {
     #[inline(always)]
     pub fn at_cell(&self, c: [usize; 3]) -> Vec3 {
         Vec3::from_array(std::array::from_fn(|a| {
-            let d = self.dims[a];
-            let mut hi = c;
-            hi[a] = if c[a] + 1 < d[a] { c[a] + 1 } else { 0 };
-            0.5 * (self.data[a][index(d, c)] + self.data[a][index(d, hi)])
+            let [lo, hi] = self.cell_faces(a, c);
+            0.5 * (self.data[a][lo] + self.data[a][hi])
         }))
+    }
+
+    /// Where [`Self::at_cell`] reads component `a` of cell `c`: the linear
+    /// indices, in `a`'s lattice, of the cell's lower and upper `a`-faces
+    /// (the upper wrapping to 0 past the lattice), in the order it adds them.
+    #[inline(always)]
+    pub(crate) fn cell_faces(&self, a: usize, c: [usize; 3]) -> [usize; 2] {
+        let d = self.dims[a];
+        let mut hi = c;
+        hi[a] = if c[a] + 1 < d[a] { c[a] + 1 } else { 0 };
+        [index(d, c), index(d, hi)]
     }
 
     /// The velocity at face `f` of component `a`: its own value, and each
@@ -204,25 +213,36 @@ impl<'a> FaceSampler<'a> {
             if b == a {
                 return self.data[a][index(self.dims[a], f)];
             }
-            let d = self.dims[b];
-            let n = d[a];
-            let (a0, a1) = match self.wrap {
-                Wrap::Periodic => (if f[a] == 0 { n - 1 } else { f[a] - 1 }, f[a]),
-                Wrap::Clamped => (f[a].saturating_sub(1).min(n - 1), f[a].min(n - 1)),
-            };
-            // Periodic: wrap; closed: f[b] + 1 ≤ n_b, inside b's lattice.
-            let b1 = if f[b] + 1 < d[b] { f[b] + 1 } else { 0 };
             let mut sum = 0.0;
-            for pa in [a0, a1] {
-                for pb in [f[b], b1] {
-                    let mut p = f;
-                    p[a] = pa;
-                    p[b] = pb;
-                    sum += self.data[b][index(d, p)];
-                }
+            for p in self.face_neighbours(a, b, f) {
+                sum += self.data[b][p];
             }
             0.25 * sum
         }))
+    }
+
+    /// Where [`Self::at_face`] reads component `b ≠ a` at face `f` of
+    /// component `a`: the linear indices, in `b`'s lattice, of the four
+    /// `b`-faces it averages, in the order it adds them — below and at `f`
+    /// along `a` (wrapped periodically, clamped in a closed box), each at
+    /// and above `f` along `b` (the upper wrapping to 0 past the lattice).
+    #[inline(always)]
+    pub(crate) fn face_neighbours(&self, a: usize, b: usize, f: [usize; 3]) -> [usize; 4] {
+        let d = self.dims[b];
+        let n = d[a];
+        let (a0, a1) = match self.wrap {
+            Wrap::Periodic => (if f[a] == 0 { n - 1 } else { f[a] - 1 }, f[a]),
+            Wrap::Clamped => (f[a].saturating_sub(1).min(n - 1), f[a].min(n - 1)),
+        };
+        // Periodic: wrap; closed: f[b] + 1 ≤ n_b, inside b's lattice.
+        let b1 = if f[b] + 1 < d[b] { f[b] + 1 } else { 0 };
+        let at = |pa: usize, pb: usize| {
+            let mut p = f;
+            p[a] = pa;
+            p[b] = pb;
+            index(d, p)
+        };
+        [at(a0, f[b]), at(a0, b1), at(a1, f[b]), at(a1, b1)]
     }
 }
 
