@@ -609,7 +609,7 @@ fn sample_row(
 
 /// [`sample_row`] for every grid of `src` (cell-centred grids of `cells`)
 /// at the same row of points, into `outs[n][at..at + n_x]`: with sixteen
-/// lanes and several grids, each group's corners found once for all of
+/// lanes and two or three grids, each group's corners found once for all of
 /// them ([`simd512::sample16_grids`]) where every stencil is inside, the
 /// grids one by one ([`simd512::sample16`]) elsewhere and the row's ends
 /// by the scalar path; else [`sample_row`] per grid.
@@ -619,43 +619,68 @@ fn sample_rows(
     points: &[Vec<f32>; 3],
     (outs, at): (&mut [&mut [f32]], usize),
 ) {
-    let nx = cells[0];
     #[cfg(target_arch = "x86_64")]
-    if lanes == Lanes::Sixteen && nx >= 18 {
-        if let (Ok(two), Ok([a, b])) = (
-            <&[_; 2]>::try_from(src),
-            <&mut [_; 2]>::try_from(&mut *outs),
-        ) {
-            let datas = two.map(|(data, _)| data);
-            let [px, py, pz] = points;
-            let covered = 1..nx - 1;
-            for i in group_starts(covered.clone(), 16) {
-                let g = [&px[i..], &py[i..], &pz[i..]];
-                let outs = [&mut **a, &mut **b];
-                // SAFETY: AVX-512F and a grid that fits (`Lanes::widest`).
-                if unsafe { simd512::sample16_grids(datas, cells, g, (outs, at + i)) } {
-                    continue;
-                }
-                for (&(data, wrap), out) in two.iter().zip([&mut **a, &mut **b]) {
-                    let out = &mut out[at + i..];
-                    // SAFETY: as above.
-                    let left = unsafe { simd512::sample16(data, (cells, wrap), g, out) };
-                    for n in lanes_in(left) {
-                        out[n] = Stencil::new(point(points, i + n), cells, wrap).apply(data);
-                    }
-                }
-            }
-            for (&(data, wrap), out) in two.iter().zip([a, b]) {
-                for i in (0..covered.start).chain(covered.end..nx) {
-                    out[at + i] = Stencil::new(point(points, i), cells, wrap).apply(data);
-                }
-            }
+    if lanes == Lanes::Sixteen && cells[0] >= 18 {
+        let done = match src.len() {
+            2 => sample_rows16::<2>((src, cells), points, (outs, at)),
+            3 => sample_rows16::<3>((src, cells), points, (outs, at)),
+            _ => false,
+        };
+        if done {
             return;
         }
     }
     for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
-        sample_row(lanes, data, (cells, wrap), points, &mut out[at..at + nx]);
+        sample_row(
+            lanes,
+            data,
+            (cells, wrap),
+            points,
+            &mut out[at..at + cells[0]],
+        );
     }
+}
+
+/// [`sample_rows`] of exactly `N` grids with sixteen lanes (the caller
+/// checked AVX-512F and a row of at least 18 cells); `false`, having done
+/// nothing, if `src` or `outs` does not hold `N`.
+#[cfg(target_arch = "x86_64")]
+fn sample_rows16<const N: usize>(
+    (src, cells): (&[(&[f32], Wrap)], [usize; 3]),
+    points: &[Vec<f32>; 3],
+    (outs, at): (&mut [&mut [f32]], usize),
+) -> bool {
+    let (Ok(src), Ok(outs)) = (
+        <&[_; N]>::try_from(src),
+        <&mut [&mut [f32]; N]>::try_from(outs),
+    ) else {
+        return false;
+    };
+    let datas = src.map(|(data, _)| data);
+    let [px, py, pz] = points;
+    let covered = 1..cells[0] - 1;
+    for i in group_starts(covered.clone(), 16) {
+        let g = [&px[i..], &py[i..], &pz[i..]];
+        let group = outs.each_mut().map(|o| &mut **o);
+        // SAFETY: AVX-512F and a grid that fits (`Lanes::widest`, caller).
+        if unsafe { simd512::sample16_grids(datas, cells, g, (group, at + i)) } {
+            continue;
+        }
+        for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
+            let out = &mut out[at + i..];
+            // SAFETY: as above.
+            let left = unsafe { simd512::sample16(data, (cells, wrap), g, out) };
+            for n in lanes_in(left) {
+                out[n] = Stencil::new(point(points, i + n), cells, wrap).apply(data);
+            }
+        }
+    }
+    for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
+        for i in (0..covered.start).chain(covered.end..cells[0]) {
+            out[at + i] = Stencil::new(point(points, i), cells, wrap).apply(data);
+        }
+    }
+    true
 }
 
 /// The widest vector kernels a sweep runs: sixteen lanes (AVX-512F), eight
@@ -833,9 +858,9 @@ pub(crate) fn advect_map(
                         }
                     }
                     let row = j * nx..(j + 1) * nx;
-                    let outs = [&mut ox[row.clone()], &mut oy[row.clone()], &mut oz[row]];
-                    for (a, (&(data, wrap), out)) in src.iter().zip(outs).enumerate() {
-                        sample_row(trace.lanes, data, (d.dims, wrap), points, out);
+                    let mut outs = [&mut ox[row.clone()], &mut oy[row.clone()], &mut oz[row]];
+                    sample_rows(trace.lanes, (&src, d.dims), points, (&mut outs, 0));
+                    for (a, out) in outs.into_iter().enumerate() {
                         let c = [0.0, j as f32, k as f32][a];
                         for (i, (o, &p)) in out.iter_mut().zip(&points[a]).enumerate() {
                             let c = if a == 0 { i as f32 } else { c };
