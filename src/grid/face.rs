@@ -816,7 +816,6 @@ pub(crate) fn compact_divergence(u: [f32; 2], v: [f32; 2], w: [f32; 2], inv: f64
     ((u[1] as f64 - u[0] as f64) + (v[1] as f64 - v[0] as f64) + (w[1] as f64 - w[0] as f64)) * inv
 }
 
-/// f32 or f64 cell data for the operators (arithmetic is done in f64).
 /// `o_i −= s (hi_i − lo_i)` in f64, rounded once per value (over the
 /// shortest of the three): a row of the compact gradient's subtraction,
 /// `u −= s G p` ([`FaceGrid::subtract_gradient`], and the periodic
@@ -828,6 +827,7 @@ pub(crate) fn subtract_difference<T: Real>(o: &mut [f32], hi: &[T], lo: &[T], s:
     }
 }
 
+/// f32 or f64 cell data for the operators (arithmetic is done in f64).
 pub(crate) trait Real: Copy + Send + Sync {
     fn from_f64(v: f64) -> Self;
     fn to_f64(self) -> f64;
