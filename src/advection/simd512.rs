@@ -74,21 +74,9 @@ fn weights(t: __m512) -> [__m512; 2] {
     [_mm512_sub_ps(_mm512_set1_ps(1.0), t), t]
 }
 
-/// `acc + Σ_cx w_x[cx]·w_y·w_z·v[cx]`: one corner row's two corners added
-/// to a trilinear sum, in the scalar order (weight product first).
-#[inline]
-#[target_feature(enable = "avx512f")]
-fn add_row(acc: __m512, wx: [__m512; 2], wy: __m512, wz: __m512, v: [__m512; 2]) -> __m512 {
-    let mut acc = acc;
-    for (wx, v) in wx.into_iter().zip(v) {
-        let weight = _mm512_mul_ps(_mm512_mul_ps(wx, wy), wz);
-        acc = _mm512_add_ps(acc, _mm512_mul_ps(weight, v));
-    }
-    acc
-}
-
-/// [`add_row`] for `N` grids at once: each weight product found once and
-/// added to every grid's sum, in [`add_row`]'s order per grid.
+/// `acc[n] + Σ_cx w_x[cx]·w_y·w_z·v[n][cx]` for each of `N` grids: one
+/// corner row's two corners added to each grid's trilinear sum, in the
+/// scalar order (weight product first), each weight product found once.
 #[inline]
 #[target_feature(enable = "avx512f")]
 fn add_rows<const N: usize>(
@@ -395,7 +383,7 @@ unsafe fn stencil16(
                     .map(|x| _mm512_i32gather_ps::<4>(_mm512_add_epi32(row, x), data.as_ptr())),
             }
         };
-        acc = add_row(acc, wx, wy[cy], wz[cz], v);
+        [acc] = add_rows([acc], wx, wy[cy], wz[cz], [v]);
     }
     (acc, bx | by | bz)
 }
