@@ -608,12 +608,58 @@ pub(super) unsafe fn faces16<const A: usize>(
     let c = row_points(f, Some(A));
     let u0 = face_velocities16::<A>(vel, f, around);
     // SAFETY: as this function's.
+    let (v, left) = unsafe { face_values16::<A>(vel, wrap, data, (c, u0), (dt_cells, backtrace)) };
+    out[..16].copy_from_slice(&lanes16(v));
+    left
+}
+
+/// [`faces16`] for any sixteen faces of component `A` — the row ends of a
+/// slab, whose neighbours wrap or clamp along x — from their grid
+/// coordinates `c` and velocities `u0` (`[x, y, z]` lanes, as
+/// `FaceSampler::at_face` finds them): the same trace and interpolation,
+/// so the same bits. Returns the lanes left to the scalar path.
+///
+/// # Safety
+/// As [`faces16`].
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn face_points16<const A: usize>(
+    vel: Lattices,
+    wrap: Wrap,
+    (data, out): (&[f32], &mut [f32; 16]),
+    (c, u0): (&[[f32; 16]; 3], &[[f32; 16]; 3]),
+    trace: (f32, Backtrace),
+) -> u32 {
+    let (mut cv, mut uv) = ([_mm512_setzero_ps(); 3], [_mm512_setzero_ps(); 3]);
+    for a in 0..3 {
+        (cv[a], uv[a]) = (load16(&c[a]), load16(&u0[a]));
+    }
+    // SAFETY: as this function's.
+    let (v, left) = unsafe { face_values16::<A>(vel, wrap, data, (cv, uv), trace) };
+    *out = lanes16(v);
+    left
+}
+
+/// The faces of component `A` at grid coordinates `c` with velocities
+/// `u0`: `data` at their departure points (the tail of [`faces16`] and
+/// [`face_points16`]), and the lanes left to the scalar path.
+///
+/// # Safety
+/// As [`faces16`].
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn face_values16<const A: usize>(
+    vel: Lattices,
+    wrap: Wrap,
+    data: &[f32],
+    (c, u0): ([__m512; 3], [__m512; 3]),
+    (dt_cells, backtrace): (f32, Backtrace),
+) -> (__m512, u32) {
+    // SAFETY: as this function's.
     let (mut g, traced) = unsafe { trace16(vel, wrap, c, u0, dt_cells, backtrace) };
     g[A] = _mm512_add_ps(g[A], _mm512_set1_ps(0.5));
     // SAFETY: `data` has component A's lattice length (caller).
     let (v, done) = unsafe { interpolate16(data, vel.dims[A], wrap, g) };
-    out[..16].copy_from_slice(&lanes16(v));
-    !(u32::from(traced) & done) & 0xffff
+    (v, !(u32::from(traced) & done) & 0xffff)
 }
 
 /// The departure points of the cell centres `(i, j, k) … (i + 15, j, k)`,

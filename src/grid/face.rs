@@ -165,10 +165,14 @@ impl<'a> FaceSampler<'a> {
     /// the cell's two faces (exactly what [`Self::at`] returns there).
     #[inline(always)]
     pub fn at_cell(&self, c: [usize; 3]) -> Vec3 {
-        Vec3::from_array(std::array::from_fn(|a| {
+        // Loops, not `array::from_fn`: its closure was not inlined (3.6 %
+        // of a 128³ Euler step's profile, through `at_face`'s).
+        let mut u = [0.0; 3];
+        for (a, u) in u.iter_mut().enumerate() {
             let [lo, hi] = self.cell_faces(a, c);
-            0.5 * (self.data[a][lo] + self.data[a][hi])
-        }))
+            *u = 0.5 * (self.data[a][lo] + self.data[a][hi]);
+        }
+        Vec3::from_array(u)
     }
 
     /// Where [`Self::at_cell`] reads component `a` of cell `c`: the linear
@@ -192,33 +196,30 @@ impl<'a> FaceSampler<'a> {
     /// or clamp; it sums the same four faces in the same order.
     #[inline(always)]
     pub fn at_face(&self, a: usize, f: [usize; 3]) -> Vec3 {
-        if (0..3).all(|x| f[x] >= 1 && f[x] + 2 <= self.cells[x]) {
-            return Vec3::from_array(std::array::from_fn(|b| {
-                let d = self.dims[b];
-                let here = index(d, f);
-                if b == a {
-                    return self.data[a][here];
-                }
-                // In b's lattice: the face below along a, and the next along b.
-                let (sa, sb) = (stride(d, a), stride(d, b));
-                let data = self.data[b];
-                let mut sum = 0.0;
-                for p in [here - sa, here - sa + sb, here, here + sb] {
-                    sum += data[p];
-                }
-                0.25 * sum
-            }));
-        }
-        Vec3::from_array(std::array::from_fn(|b| {
+        // Loops, not `array::from_fn`: its closure was not inlined.
+        let mut u = [0.0; 3];
+        let inside = (0..3).all(|x| f[x] >= 1 && f[x] + 2 <= self.cells[x]);
+        for (b, u) in u.iter_mut().enumerate() {
+            let d = self.dims[b];
             if b == a {
-                return self.data[a][index(self.dims[a], f)];
+                *u = self.data[a][index(d, f)];
+                continue;
             }
+            let neighbours = match inside {
+                // In b's lattice: the face below along a, and the next along b.
+                true => {
+                    let (here, sa, sb) = (index(d, f), stride(d, a), stride(d, b));
+                    [here - sa, here - sa + sb, here, here + sb]
+                }
+                false => self.face_neighbours(a, b, f),
+            };
             let mut sum = 0.0;
-            for p in self.face_neighbours(a, b, f) {
+            for p in neighbours {
                 sum += self.data[b][p];
             }
-            0.25 * sum
-        }))
+            *u = 0.25 * sum;
+        }
+        Vec3::from_array(u)
     }
 
     /// Where [`Self::at_face`] reads component `b ≠ a` at face `f` of
