@@ -24,7 +24,8 @@
 //! each series' least-squares slope printed on the plot; `summary.csv` and
 //! `manifest.json` (`fits`) hold the slopes (seconds and MiB per frame),
 //! relative growth, r² and verdict linear / flat / unclear. Render times
-//! are wall times on a shared machine: relative measures.
+//! are wall times on a shared machine, the fastest of three renders of
+//! each point: relative measures.
 //!
 //! Measured (default size, a loaded machine): gridless memory grows 0.375
 //! MiB per frame counted, 0.376 heap, 0.378 RSS (r² ≥ 0.9997); SELMA's heap
