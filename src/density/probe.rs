@@ -31,7 +31,7 @@ use serde::Serialize;
 
 use super::{DensityMode, DensityModel};
 use crate::domain::Domain;
-use crate::field::ScalarField;
+use crate::field::{eval_supported, ScalarField};
 use crate::grid::ScalarGrid;
 use crate::metrics::SpectralShare;
 
@@ -157,6 +157,7 @@ fn measure_sampled(
 /// `refine = 4` and 32³ or more.
 pub fn integral(f: &dyn ScalarField, domain: &Domain, refine: usize) -> f64 {
     let fine = domain.refined(refine);
+    let support = f.support();
     let sum: f64 = (0..fine.dims[2])
         .into_par_iter()
         .map_init(
@@ -164,7 +165,7 @@ pub fn integral(f: &dyn ScalarField, domain: &Domain, refine: usize) -> f64 {
             |(points, values), k| {
                 fine.slab_centers(k, points);
                 values.resize(points.len(), 0.0);
-                f.eval_batch(points, values);
+                eval_supported(f, support, points, values);
                 values.iter().map(|&v| v as f64).sum::<f64>()
             },
         )
@@ -187,6 +188,7 @@ pub fn cell_averages(f: &dyn ScalarField, domain: &Domain, refine: usize) -> Sca
     let mut grid = ScalarGrid::zeros(*domain);
     let weight = 1.0 / (refine * refine * refine) as f64;
     let nf = fine.dims[0];
+    let support = f.support();
     grid.as_slice_mut()
         .par_chunks_mut(nx * ny)
         .enumerate()
@@ -205,10 +207,18 @@ pub fn cell_averages(f: &dyn ScalarField, domain: &Domain, refine: usize) -> Sca
                 // coarse cells, in the samples' order.
                 for kf in k * refine..(k + 1) * refine {
                     for jf in 0..fine.dims[1] {
+                        // A row outside the support adds only `+0.0`s.
+                        let ends = [
+                            fine.cell_center(0, jf, kf),
+                            fine.cell_center(nf - 1, jf, kf),
+                        ];
+                        if support.is_some_and(|b| !b.meets(&ends)) {
+                            continue;
+                        }
                         for (i, p) in points.iter_mut().enumerate() {
                             *p = fine.cell_center(i, jf, kf);
                         }
-                        f.eval_batch(points, values);
+                        eval_supported(f, support, points, values);
                         let cells = &mut sums[(jf / refine) * nx..][..nx];
                         for (s, sub) in cells.iter_mut().zip(values.chunks_exact(refine)) {
                             for &v in sub {

@@ -112,7 +112,7 @@ use crate::advection::departure_points;
 use crate::advection::semi_lagrangian::{advect_map, sample_points};
 use crate::boundary::WallStop;
 use crate::domain::Domain;
-use crate::field::{Scalar, ScalarField};
+use crate::field::{eval_supported, Bounds, Scalar, ScalarField};
 use crate::grid::{ScalarGrid, VectorGrid};
 
 /// Map nodes traced together: sixteen, the lanes of the AVX-512 walk kernel
@@ -848,6 +848,7 @@ fn inject(gases: &mut [&mut Selma], lattice: &VectorGrid, dt: f32) {
     let ys = lattice.as_vec3();
     let mut targets = gases.iter_mut().filter_map(|g| {
         let source = g.source.as_ref()?;
+        let source = (source, source.support());
         Some((source, Arc::make_mut(&mut g.field.reference).as_slice_mut()))
     });
     while let Some((sa, ra)) = targets.next() {
@@ -863,16 +864,36 @@ fn inject(gases: &mut [&mut Selma], lattice: &VectorGrid, dt: f32) {
     }
 }
 
+/// A gas's source and its support ([`ScalarField::support`]).
+type SourceBound<'a> = (&'a Scalar, Option<Bounds>);
+
 /// [`inject`] on one slab: lattice nodes `ys`, each gas's source and
-/// reference slab.
-fn inject_slab(md: &Domain, ys: &[Vec3], dt: f32, mut gases: [Option<(&Scalar, &mut [f32])>; 2]) {
+/// reference slab; the source is not evaluated outside its support
+/// ([`eval_supported`]).
+fn inject_slab(
+    md: &Domain,
+    ys: &[Vec3],
+    dt: f32,
+    mut gases: [Option<(SourceBound, &mut [f32])>; 2],
+) {
     let mut points = [Vec3::ZERO; 8 * CHUNK];
     let mut values = [0.0f32; 8 * CHUNK];
     for (c, ys) in ys.chunks(CHUNK).enumerate() {
         let (points, values) = (&mut points[..8 * ys.len()], &mut values[..8 * ys.len()]);
-        sub_points(md, ys, points);
-        for (source, r) in gases.iter_mut().flatten() {
-            source.eval_batch(points, values);
+        // A source whose support misses every sub-point of the chunk gives
+        // `+0.0` there: not evaluated, and no sub-points made if none needs them.
+        let around = sub_bounds(md, ys);
+        let misses =
+            |support: &Option<Bounds>| around.zip(*support).is_some_and(|(a, s)| !s.overlaps(&a));
+        if gases.iter().flatten().any(|((_, s), _)| !misses(s)) {
+            sub_points(md, ys, points);
+        }
+        for ((source, support), r) in gases.iter_mut().flatten() {
+            if misses(support) {
+                values.fill(0.0);
+            } else {
+                eval_supported(&***source, *support, points, values);
+            }
             for (m, r) in r[c * CHUNK..][..ys.len()].iter_mut().enumerate() {
                 *r += dt * (sub_sum(values, m) * 0.125);
             }
@@ -1000,6 +1021,18 @@ fn sub_points(md: &Domain, centres: &[Vec3], out: &mut [Vec3]) {
             out[s * n + m] = if inside { c + o } else { into_box.wrap(c + o) };
         }
     }
+}
+
+/// A box holding the [`sub_points`] of every one of `centres` when none
+/// of them wraps (rounding is monotone: `c + o` lies between the lowest
+/// centre plus the lowest offset and the highest plus the highest); `None`
+/// when some may wrap, or there are no centres.
+fn sub_bounds(md: &Domain, centres: &[Vec3]) -> Option<Bounds> {
+    let into_box = BoxWrap::new(md);
+    let (low, high) = (SUB[0] * md.cell, SUB[7] * md.cell);
+    let b = Bounds::of(centres)?;
+    let (min, max) = (b.min + low, b.max + high);
+    (into_box.inside(min) && into_box.inside(max)).then_some(Bounds { min, max })
 }
 
 /// The sum of centre `m`'s eight sub-point values, laid out as

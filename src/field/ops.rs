@@ -17,7 +17,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::{Scalar, ScalarField, Vector, VectorField};
+use super::{Bounds, Scalar, ScalarField, Vector, VectorField};
 
 /// A constant scalar.
 pub struct Constant(pub f32);
@@ -73,6 +73,9 @@ impl ScalarField for Sphere {
     fn eval(&self, p: Vec3) -> f32 {
         self.radius * self.radius - (p - self.center).length_squared()
     }
+    fn positive_bounds(&self) -> Option<Bounds> {
+        Some(Bounds::ball(self.center, self.radius))
+    }
     fn grad_batch(&self, points: &[Vec3], out: &mut [Vec3]) -> bool {
         assert_eq!(points.len(), out.len(), "grad_batch: slice lengths differ");
         for (o, &p) in out.iter_mut().zip(points) {
@@ -99,6 +102,9 @@ impl ScalarField for Mask {
             *v = if *v > 0.0 { 1.0 } else { 0.0 };
         }
     }
+    fn support(&self) -> Option<Bounds> {
+        self.0.positive_bounds()
+    }
 }
 
 /// A ball with a smooth edge: 1 inside `radius − edge/2`, 0 outside
@@ -118,6 +124,9 @@ impl ScalarField for SmoothBall {
         let t = ((self.radius + 0.5 * self.edge - (p - self.center).length()) / self.edge)
             .clamp(0.0, 1.0);
         t * t * (3.0 - 2.0 * t)
+    }
+    fn support(&self) -> Option<Bounds> {
+        Some(Bounds::ball(self.center, self.radius + 0.5 * self.edge))
     }
 }
 
@@ -150,6 +159,10 @@ impl ScalarField for Scale {
         for o in out.iter_mut() {
             *o *= self.1;
         }
+    }
+    fn support(&self) -> Option<Bounds> {
+        // `s · (+0.0)` is `+0.0` only for `s ≥ 0`.
+        (self.1 >= 0.0).then(|| self.0.support()).flatten()
     }
 }
 
@@ -335,6 +348,7 @@ pub fn inject(center: Vec3, radius: f32, dt: f32) -> Scalar {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::field::eval_supported;
     use approx::assert_relative_eq;
 
     #[test]
@@ -366,6 +380,62 @@ mod tests {
                 assert_eq!(*o, f.eval(*p));
             }
         }
+    }
+
+    /// Outside its support a field is `+0.0` to the bit, also one ulp
+    /// past the box's faces and corners and around a far-off centre (where
+    /// `|p − c|` rounds most); a negative scale has no support (it gives
+    /// `−0.0`); and [`eval_supported`] gives `eval_batch`'s bits while it
+    /// skips the chunks outside.
+    #[test]
+    fn support_is_exact_where_it_skips() {
+        let c = Vec3::new(37.3, -12.9, 50.1);
+        let fields = [
+            mask(sphere(c, 1.7)),
+            smooth_ball(c, 1.7, 0.3),
+            scale(mask(sphere(c, 1.7)), 2.0),
+        ];
+        for f in &fields {
+            let b = f.support().expect("a bounded source");
+            let mut outside = vec![];
+            for corner in 0..27 {
+                // Each axis below, inside or above the box, the outside
+                // ones one ulp past its faces; all but the centre outside.
+                let pick = |a: usize, min: f32, max: f32, mid: f32| match corner
+                    / 3usize.pow(a as u32)
+                    % 3
+                {
+                    0 => min.next_down(),
+                    1 => mid,
+                    _ => max.next_up(),
+                };
+                if corner == 13 {
+                    continue;
+                }
+                outside.push(Vec3::new(
+                    pick(0, b.min.x, b.max.x, c.x),
+                    pick(1, b.min.y, b.max.y, c.y),
+                    pick(2, b.min.z, b.max.z, c.z),
+                ));
+            }
+            for p in &outside {
+                assert_eq!(f.eval(*p).to_bits(), 0.0f32.to_bits(), "{p}");
+            }
+            let pts: Vec<Vec3> = (0..4000)
+                .map(|i| {
+                    c + Vec3::new((i % 20) as f32, (i / 20 % 20) as f32, (i / 400) as f32) * 0.25
+                        - 2.4
+                })
+                .collect();
+            let (mut all, mut skipped) = (vec![0.0; pts.len()], vec![1.0; pts.len()]);
+            f.eval_batch(&pts, &mut all);
+            eval_supported(&**f, Some(b), &pts, &mut skipped);
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&all), bits(&skipped));
+            assert!(all.iter().any(|&v| v > 0.0) && !b.meets(&pts[..20]));
+        }
+        assert!(scale(mask(sphere(c, 1.7)), -1.0).support().is_none());
+        assert!(sphere(c, 1.7).support().is_none());
     }
 
     #[test]
