@@ -314,7 +314,8 @@ fn gather_column<T: Copy>(lines: ArrayView2<Complex<T>>, col: &mut [Complex<T>])
 /// [`gather_column`] back: `col[ky·nz + kz]` into the z-lines of one
 /// x-frequency, `lines[kz][ky]`, [`TILE`] z-rows at a time, so that each
 /// read covers `TILE` consecutive values of a z-line (one value per read
-/// missed L1 as the gather's writes had: 2 % of a 128³ Euler step).
+/// walks a whole column, 2^n bins apart, through the same few L1 sets, as
+/// the gather's writes did).
 fn scatter_column<T: Copy>(col: &[Complex<T>], mut lines: ArrayViewMut2<Complex<T>>) {
     let (nz, ny) = lines.dim();
     for (t, mut block) in lines.axis_chunks_iter_mut(Axis(0), TILE).enumerate() {
