@@ -44,7 +44,7 @@ use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
 use crate::sphere_wall_series::{
-    owned_frames, plot_costs, render_wall, study_size, warm_up, CostRow, Setup,
+    owned_frames, plot_costs, render_wall, study_size, warm_up, CostRow, Setup, TIMING_PASSES,
 };
 use crate::table::write_rows;
 use smokelab::io::{self, manifest::Manifest};
@@ -62,13 +62,6 @@ pub const EXPERIMENT: Experiment = Experiment {
 
 /// The march step, in velocity cells.
 const MARCH_DIV: f32 = 10.0;
-
-/// Passes over all points after the measured one, each rendering every
-/// point once more; a point's time is the fastest of all its renders. A
-/// slow spell of the shared machine outlasted the measured pass's three
-/// back-to-back renders of a point (SELMA's flat time fitted "unclear"
-/// at 4ff6aa6, one point 12–45 % slow); a pass apart, it rarely hits all.
-const TIMING_PASSES: usize = 2;
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();

@@ -292,6 +292,15 @@ pub(crate) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Re
 }
 
 /// One measured render of a cost study: a row of its `data.csv`.
+/// Passes of the cost studies over all their points after the measured
+/// one, each rendering every point once more; a point's time is the
+/// fastest of all its renders. A slow spell of the shared machine
+/// outlasted the measured pass's three back-to-back renders of a point
+/// (08-2's flat SELMA time fitted "unclear" at 4ff6aa6, one point 12–45 %
+/// slow; 07-10's gridless time at 90a358d, r² 0.90); a pass apart, it
+/// rarely hits all.
+pub(crate) const TIMING_PASSES: usize = 2;
+
 /// Renders of each cost point; its time is the fastest. On a shared
 /// machine one render in ten or so runs 10–20 % slow, and one such frame
 /// had made 08-2's flat SELMA render time fit as "unclear".

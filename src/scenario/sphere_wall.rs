@@ -253,6 +253,7 @@ impl Wall {
 }
 
 /// The wall advected on the velocity grid, one frame at a time (eq 6.4).
+#[derive(Clone)]
 pub struct GriddedWall {
     /// Row densities at the cell centres.
     pub grids: Vec<ScalarGrid>,
