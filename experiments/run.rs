@@ -182,8 +182,9 @@ impl StepMeasures {
 }
 
 /// The measures taken every `metrics_every` steps: each gas sampled at 2×
-/// and measured by `probe` (gridless gases with one walk for all), and the top-octave share of the kinetic energy
-/// (NaN in a closed box, where the periodic spectrum is not defined).
+/// and measured by `probe` (gridless gases with one walk for all), and the
+/// top-octave share of the kinetic energy (NaN in a closed box, where the
+/// periodic spectrum is not defined).
 pub fn fine_measures(
     sim: &Simulation,
     probe: &mut DensityProbe,

@@ -299,10 +299,8 @@ fn face_sweep<const A: usize>(
     let sixteen = simd.filter(|_| cells[0] >= 18 && simd512::has_avx512());
     #[cfg(not(target_arch = "x86_64"))]
     let _ = wrap;
-    let scalar = |[i, j, k]: [usize; 3]| {
-        let mut c = Vec3::new(i as f32, j as f32, k as f32);
-        c[A] -= 0.5;
-        let u0 = vel.at_face(A, [i, j, k]);
+    let scalar = |f: [usize; 3]| {
+        let (c, u0) = face_start::<A>(vel, f);
         let g = departure(vel, c, u0, dt_cells, backtrace);
         vel.component_of(A, data, g)
     };
@@ -389,6 +387,16 @@ fn face_sweep<const A: usize>(
         });
 }
 
+/// Where a backtrace from face `f` of component `A` starts: the face's
+/// grid coordinates (cell centres at integers, so `−½` along `A`) and its
+/// velocity (`FaceSampler::at_face`).
+#[inline(always)]
+fn face_start<const A: usize>(vel: FaceSampler, f: [usize; 3]) -> (Vec3, Vec3) {
+    let mut c = Vec3::new(f[0] as f32, f[1] as f32, f[2] as f32);
+    c[A] -= 0.5;
+    (c, vel.at_face(A, f))
+}
+
 /// The faces `faces` of component `A` in one slab (`slab`, rows `nx`
 /// long; the rows' ends, whose neighbours wrap or clamp along x) sixteen
 /// at a time by [`simd512::face_points16`]: each face's velocity by the
@@ -412,12 +420,11 @@ fn row_ends16<const A: usize>(
             n += 1;
         }
         // Lanes past the last face repeat the first (and are not written).
+        let first = group[0];
+        group[n..].fill(first);
         let (mut c, mut u0) = ([[0.0f32; 16]; 3], [[0.0f32; 16]; 3]);
         for (l, &f) in group.iter().enumerate() {
-            let f = if l < n { f } else { group[0] };
-            let mut p = Vec3::new(f[0] as f32, f[1] as f32, f[2] as f32);
-            p[A] -= 0.5;
-            let u = vel.at_face(A, f);
+            let (p, u) = face_start::<A>(vel, f);
             for a in 0..3 {
                 (c[a][l], u0[a][l]) = (p[a], u[a]);
             }

@@ -44,8 +44,8 @@
 //! chain keeps its injection within 2 % (`tests/density.rs`) and is left
 //! as the notes have it. The positions are walked as without the factor
 //! (the AVX2 kernel included); the factor takes the midpoint velocities in
-//! a batch and the interpolant's divergence there, point by point
-//! ([`crate::grid::face::FaceSampler::divergence_at`]) per point and step.
+//! a batch, then the interpolant's divergence there point by point
+//! ([`crate::grid::face::FaceSampler::divergence_at`]), every step.
 //!
 //! # One walk for several gases
 //! The positions and `J` depend only on the start points, the velocity
@@ -95,8 +95,9 @@ impl PastStep {
 
 impl PastStep {
     /// The volume factor `j = det ∂B/∂x` of this step's backward map at
-    /// each grid point `x` of `g`, multiplied into `volume`, from the divergence of the velocity interpolant at
-    /// the backtrace's midpoint (its start for Euler):
+    /// each grid point `x` of `g`, multiplied into `volume`, from the
+    /// divergence of the velocity interpolant at the backtrace's midpoint
+    /// (its start for Euler):
     ///
     /// ```text
     /// a = Δt ∇·u(x − ½Δt u(x)),      j = (1 − a/2) / (1 + a/2)  ≈ e^{−a}
@@ -110,8 +111,9 @@ impl PastStep {
     /// loses the walks their way to the source (README, "Exact obstacles,
     /// measured").
     ///
-    /// The midpoints' velocities come in one batch ([`FaceGrid::sample_grid_points`], the
-    /// same bits as the point query), into the scratch `u`.
+    /// The midpoints' velocities come in one batch
+    /// ([`FaceGrid::sample_grid_points`], the same bits as the point
+    /// query), into the scratch `u`.
     fn scale_volumes(&self, d: &Domain, g: &[Vec3], volume: &mut [f32], u: &mut Vec<Vec3>) {
         let dt_cells = self.dt / d.cell;
         let s = self.velocity.sampler();
