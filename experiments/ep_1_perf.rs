@@ -23,9 +23,9 @@
 //!   16's target ≤ 2 at 128³);
 //! - **metrics**: what `smokelab run` measures after a step, on the same
 //!   state: the per-step measures (`run::StepMeasures`: velocity mirror and
-//!   max, compact divergence, the interpolant at 4096 points, the gases'
-//!   mirror) and the fine measures of every `metrics_every` steps
-//!   (`run::fine_measures`: each gas at 2×, the top-octave share); the
+//!   max, compact divergence, the gases' mirror) and the fine measures of
+//!   every `metrics_every` steps (`run::FineProbes::measure`: each gas at
+//!   2×, the top-octave share, the interpolant at 4096 points); the
 //!   per-step measures ÷ step (issue 16's target ≤ 5 % at 128³) and the
 //!   run's metrics at the default cadence (`metrics_every` = 10) ÷ step;
 //! - **peers** (`--peers PYTHON`): `taichi_advect.py N 2 f32` and
@@ -64,15 +64,13 @@ use rayon::prelude::*;
 
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style};
 use crate::registry::{Context, Experiment, Size};
-use crate::run::{fine_measures, StepMeasures, PROBE_POINTS};
+use crate::run::{FineProbes, StepMeasures};
 use crate::table::write_columns;
 use smokelab::advection::Backtrace;
-use smokelab::density::probe::DensityProbe;
 use smokelab::error::InputError;
 use smokelab::fit::linear_fit;
 use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::io::{self, manifest::Manifest};
-use smokelab::metrics::{self, SpectralShare};
 use smokelab::pressure::periodic_fft::PeriodicFft;
 use smokelab::pressure::PressureSolver;
 use smokelab::scenario::hot_cold::HotColdConfig;
@@ -154,7 +152,7 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
         "load_before": load_before,
         "load_after": load_after,
         "bitwise_equal_1_vs_2_threads": rows.iter().all(|r| r.bitwise_equal),
-        "timed": "Simulation::step only (advect, density, force, project); the run driver's metrics (metrics_ms: run::StepMeasures, fine_metrics_ms: run::fine_measures) are timed apart on the same state, outputs not at all; setup_s (sources' cell averages, plans) is timed apart",
+        "timed": "Simulation::step only (advect, density, force, project); the run driver's metrics (metrics_ms: run::StepMeasures, fine_metrics_ms: run::FineProbes::measure) are timed apart on the same state, outputs not at all; setup_s (sources' cell averages, plans) is timed apart",
         "default_metrics_every": SolverConfig::default().metrics_every,
         "floor": "min(f32 realfft+rustfft pair, the solver's f64 pair) + five f32 array copies (the fused sweep's 5 fields read and written)",
         "peers": match (&peers, &peer_rows) {
@@ -298,9 +296,7 @@ fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]
         .for_each(|(i, v)| *v = ((i * 7919) % 1009) as f32 / 1009.0 - 0.5);
     let mut p = ScalarGrid::zeros(domain);
     let mut pass = Bandwidth::new(domain.len());
-    let points = metrics::probe_points(&domain, PROBE_POINTS, 1);
-    let mut probe = DensityProbe::new(domain);
-    let mut spectrum = SpectralShare::new(domain.dims);
+    let mut probes = FineProbes::new(domain);
     let mut t = [(); 8].map(|_| Vec::with_capacity(steps));
     let mut stages = [(); 4].map(|_| Vec::with_capacity(steps));
     for _ in 0..steps {
@@ -319,12 +315,12 @@ fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]
         t[5].push(ms(|| two.install(|| pass.run())));
         t[6].push(ms(|| {
             two.install(|| {
-                StepMeasures::take(&double, &points);
+                StepMeasures::take(&double);
             })
         }));
         t[7].push(ms(|| {
             two.install(|| {
-                fine_measures(&double, &mut probe, &mut spectrum);
+                probes.measure(&double);
             })
         }));
     }

@@ -14,8 +14,8 @@
 //! - `obstacle.npy` — f32 `(nz, ny, nx)` obstacle level set at the cell
 //!   centres, positive inside, world units (runs with obstacles);
 //! - `metrics.csv` — one row per step ([`MetricsRow`]), appended and flushed
-//!   as each step ends; the fine-sampled density measures are computed every
-//!   `metrics_every` steps and the last, `NaN` in between;
+//!   as each step ends; the fine measures ([`FineMeasures`]) are computed
+//!   every `metrics_every` steps and at the last, `NaN` in between;
 //! - `checkpoint.bin` — with `--checkpoint-every K`: the whole state after
 //!   the latest K-th step ([`crate::checkpoint`]), for `run --resume`;
 //! - `manifest.json` — configuration, machine, commit, wall time, peak memory;
@@ -37,6 +37,7 @@ use crate::frames::{FrameRecord, FrameRender};
 use crate::table::{field_names, Log};
 use smokelab::density::probe::{DensityMeasures, DensityProbe};
 use smokelab::density::{DensityMode, DensityModel};
+use smokelab::domain::Domain;
 use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::io::vdb::VolumeGeometry;
 use smokelab::io::vtk::PvdCollection;
@@ -56,7 +57,7 @@ pub struct RunOptions {
     pub save: SaveFrames,
     /// Show a progress bar on stderr.
     pub progress: bool,
-    /// Compute the fine-sampled density measures every this many steps
+    /// Compute the fine measures ([`FineMeasures`]) every this many steps
     /// (and at the last); they are the expensive part of a gridless run.
     pub metrics_every: usize,
     /// Also write each gas sampled with this many cells along the longest axis.
@@ -157,47 +158,72 @@ pub struct Checkpointing {
 /// Fixed random points at which the interpolant's divergence is measured.
 pub const PROBE_POINTS: usize = 4096;
 
-/// The measures taken after every step: one pass over the faces, one over
-/// the two gases' cells, and the interpolant at [`PROBE_POINTS`] points.
+/// The measures taken after every step: one pass over the faces and one
+/// over the two gases' cells.
 pub struct StepMeasures {
     /// The compact divergence after projection, the velocity's mirror
     /// error and `max |u_a|`.
     pub velocity: metrics::VelocityStats,
-    /// The divergence tracers feel, relative to `|∇u|`.
-    pub div_interp: metrics::RmsMax,
     /// The two gases' mirror error (two gases only).
     pub mirror: Option<f32>,
 }
 
 impl StepMeasures {
-    /// Measure `sim`'s current state, the interpolant at `points`.
-    pub fn take(sim: &Simulation, points: &[Vec3]) -> Self {
+    /// Measure `sim`'s current state.
+    pub fn take(sim: &Simulation) -> Self {
         Self {
             velocity: metrics::velocity_stats(&sim.velocity),
-            div_interp: metrics::face_interpolant_divergence(&sim.velocity, points),
             mirror: (sim.gases.len() == 2)
                 .then(|| metrics::mirror_error(sim.gases[0].density(), sim.gases[1].density())),
         }
     }
 }
 
-/// The measures taken every `metrics_every` steps: each gas sampled at 2×
-/// and measured by `probe` (gridless gases with one walk for all), and the
-/// top-octave share of the kinetic energy (NaN in a closed box, where the
-/// periodic spectrum is not defined).
-pub fn fine_measures(
-    sim: &Simulation,
-    probe: &mut DensityProbe,
-    spectrum: &mut SpectralShare,
-) -> (Vec<DensityMeasures>, f64) {
-    let models: Vec<&DensityModel> = sim.gases.iter().map(|g| &g.model).collect();
-    let measures = probe.measure_all(&models);
-    let ke_top_octave = if sim.velocity.kind() == BoxKind::Periodic {
-        metrics::top_octave_share(spectrum, &sim.velocity)
-    } else {
-        f64::NAN
-    };
-    (measures, ke_top_octave)
+/// The measures taken every `metrics_every` steps (and at the last): the
+/// ones that sample finely, take spectra or differentiate.
+pub struct FineMeasures {
+    /// Each gas sampled at 2× and measured by [`DensityProbe`].
+    pub densities: Vec<DensityMeasures>,
+    /// The top-octave share of the kinetic energy (`NaN` in a closed box,
+    /// where the periodic spectrum is not defined).
+    pub ke_top_octave: f64,
+    /// The divergence tracers feel, relative to `|∇u|`, at [`PROBE_POINTS`]
+    /// fixed random points.
+    pub div_interp: metrics::RmsMax,
+}
+
+/// The state of the fine measures on one grid, made once per run: the
+/// probe points, the 2× density probe and the spectrum's plans.
+pub struct FineProbes {
+    points: Vec<Vec3>,
+    density: DensityProbe,
+    spectrum: SpectralShare,
+}
+
+impl FineProbes {
+    /// Probes for a run on `domain`.
+    pub fn new(domain: Domain) -> Self {
+        Self {
+            points: metrics::probe_points(&domain, PROBE_POINTS, 1),
+            density: DensityProbe::new(domain),
+            spectrum: SpectralShare::new(domain.dims),
+        }
+    }
+
+    /// The [`FineMeasures`] of `sim`'s current state (gridless gases
+    /// sampled with one walk for all).
+    pub fn measure(&mut self, sim: &Simulation) -> FineMeasures {
+        let models: Vec<&DensityModel> = sim.gases.iter().map(|g| &g.model).collect();
+        FineMeasures {
+            densities: self.density.measure_all(&models),
+            ke_top_octave: if sim.velocity.kind() == BoxKind::Periodic {
+                metrics::top_octave_share(&mut self.spectrum, &sim.velocity)
+            } else {
+                f64::NAN
+            },
+            div_interp: metrics::face_interpolant_divergence(&sim.velocity, &self.points),
+        }
+    }
 }
 
 /// A CFL number `max|u| Δt/Δx` beyond which a run warns (once): the
@@ -213,7 +239,8 @@ pub const CFL_WARNING: f32 = 10.0;
 ///   relative to the rms of `|∇u|` there —
 ///   [`metrics::interpolant_divergence`]), `ke_top_octave` (share of the
 ///   kinetic energy with a wavenumber index beyond `N/4` on some axis: the top
-///   octave, grid-scale flow; on the fine-measure cadence, `NaN` between);
+///   octave, grid-scale flow); these two on the fine-measure cadence, `NaN`
+///   between;
 /// - per gas `<g>_mass` (∫ρ at 2× the velocity grid), `<g>_injected`
 ///   (`∫S dV · t`, the same in every mode: gridless and SELMA evaluate `S`
 ///   anywhere, a gridded density adds the cell averages of `S` whose total
@@ -452,9 +479,7 @@ fn drive<C: Serialize>(
                 pvd.push(time, &format!("frame_{f:04}.vti"))?;
             }
         }
-        let mut probe = DensityProbe::new(domain);
-        let points = metrics::probe_points(&domain, PROBE_POINTS, 1);
-        let mut spectrum = SpectralShare::new(domain.dims);
+        let mut probes = FineProbes::new(domain);
         let every = opts.metrics_every.max(1);
         let mut warned_cfl = false;
         for frame in first + 1..=opts.frames {
@@ -472,23 +497,13 @@ fn drive<C: Serialize>(
                     opts.out.display()
                 );
             }
-            let StepMeasures {
-                velocity,
-                div_interp,
-                mirror,
-            } = timed(&mut times.metrics, || StepMeasures::take(sim, &points));
+            let StepMeasures { velocity, mirror } =
+                timed(&mut times.metrics, || StepMeasures::take(sim));
             let (div, vel_mirror) = (velocity.divergence, velocity.mirror);
             let max_u = vel_mirror.max_norm;
             let cfl = max_u * sim.params.dt / sim.domain().cell;
             let measuring = frame % every == 0 || frame == opts.frames;
-            let (measures, ke_top_octave) = if measuring {
-                let (m, ke) = timed(&mut times.metrics, || {
-                    fine_measures(sim, &mut probe, &mut spectrum)
-                });
-                (Some(m), ke)
-            } else {
-                (None, f64::NAN)
-            };
+            let fine = measuring.then(|| timed(&mut times.metrics, || probes.measure(sim)));
             if opts.save.contains(frame, opts.frames) {
                 timed(&mut times.output, || {
                     write_frame(sim, &opts.out, frame, opts.sample_res)?;
@@ -510,7 +525,7 @@ fn drive<C: Serialize>(
                 .zip(&summary.source_rates)
                 .enumerate()
                 .map(|(n, (g, rate))| {
-                    let m = measures.as_ref().map(|m| m[n]);
+                    let m = fine.as_ref().map(|f| f.densities[n]);
                     let gridded = g.model.mode() == DensityMode::Gridded;
                     let on_grid = |v: f64| if gridded { v } else { f64::NAN };
                     let mass = m.map_or(f64::NAN, |m| m.mass);
@@ -554,9 +569,9 @@ fn drive<C: Serialize>(
                     cfl,
                     div_rms: div.rms,
                     div_max: div.max,
-                    div_interp_rms: div_interp.rms,
-                    div_interp_max: div_interp.max,
-                    ke_top_octave,
+                    div_interp_rms: fine.as_ref().map_or(f32::NAN, |f| f.div_interp.rms),
+                    div_interp_max: fine.as_ref().map_or(f32::NAN, |f| f.div_interp.max),
+                    ke_top_octave: fine.as_ref().map_or(f64::NAN, |f| f.ke_top_octave),
                 },
                 gases,
                 mirror_error: mirror.into_iter().collect(),
@@ -585,8 +600,8 @@ fn drive<C: Serialize>(
             s.metrics += times.metrics;
             summary.final_mirror_error = mirror;
             summary.final_density_bytes = density_bytes;
-            if let Some(m) = measures {
-                summary.final_measures = m;
+            if let Some(f) = fine {
+                summary.final_measures = f.densities;
             }
             if cfl > CFL_WARNING && !warned_cfl {
                 warned_cfl = true;

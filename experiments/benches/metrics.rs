@@ -1,7 +1,8 @@
 //! The measures taken after every step (`run::StepMeasures::take`, issue 16
-//! item 1: ≤ 5 % of a 128³ step) and each of its three parts —
-//! `velocity_stats`, the interpolant's divergence at the probe points, the
-//! gases' `mirror_error` — on the 128³ hot/cold state, in the global rayon
+//! item 1: ≤ 5 % of a 128³ step) and each of its two parts —
+//! `velocity_stats` and the gases' `mirror_error` — and the interpolant's
+//! divergence at the probe points, one of the fine measures taken every
+//! `metrics_every` steps, on the 128³ hot/cold state, in the global rayon
 //! pool. `warm/…` repeats each on cached data; `cold/…` first writes a
 //! 64 MB buffer (untimed, as experiment P-1's bandwidth pass runs before
 //! its measures), so the grids come from memory.
@@ -26,7 +27,7 @@ fn benches(c: &mut Criterion) {
     let (a, b) = (sim.gases[0].density(), sim.gases[1].density());
     let parts: [(&str, &(dyn Fn() + Sync)); 4] = [
         ("take", &|| {
-            black_box(StepMeasures::take(&sim, &points));
+            black_box(StepMeasures::take(&sim));
         }),
         ("velocity_stats", &|| {
             black_box(metrics::velocity_stats(&sim.velocity));

@@ -8,9 +8,9 @@
 //! - `record(frame, dt, velocity, [gases…])` — one row of `metrics.csv`
 //!   with the columns of `smokelab run` that a script has the data for, by
 //!   the same functions and in the run's order ([`columns`]): the velocity's
-//!   measures every step; the fine density measures (`<g>_mass, <g>_max,
-//!   <g>_grad, <g>_subgrid` at 2×, [`DensityProbe`]) and `ke_top_octave`
-//!   every [`FINE_EVERY`] steps, `NaN` between —
+//!   measures every step; the fine measures ([`crate::run::FineMeasures`]:
+//!   `div_interp_*`, `ke_top_octave` and `<g>_mass, <g>_max, <g>_grad,
+//!   <g>_subgrid` at 2×) every [`FINE_EVERY`] steps, `NaN` between —
 //!   `record(frame, dt, velocity, [gases…], fine)` says when instead (a
 //!   script passes `frame == frames` to measure the last, as `run` does);
 //!   then per gas `<g>_grid_mass` (`Σ ρ Δx³` on the grid, every step) and
@@ -32,16 +32,14 @@ use std::time::Instant;
 use glam::Vec3;
 use rhai::{Array, Engine, FLOAT, INT};
 use serde::Serialize;
-use smokelab::density::probe::{DensityMeasures, DensityProbe};
-use smokelab::domain::Domain;
+use smokelab::density::probe::DensityMeasures;
 use smokelab::field::ops;
 use smokelab::grid::ScalarGrid;
 use smokelab::io;
-use smokelab::metrics::{self, SpectralShare};
 use smokelab::simulation::{Gas, Simulation, StepParams};
 
 use super::types::{Fallible, Region, ScalarCache, ScalarF, VectorCache};
-use crate::run::{fine_measures, StepMeasures};
+use crate::run::{FineProbes, StepMeasures};
 use crate::table::Log;
 
 /// The steps whose fine density measures `record(frame, dt, velocity,
@@ -88,30 +86,13 @@ pub fn columns(gases: &[String]) -> Vec<String> {
     c
 }
 
-/// The measuring state of `record`: the run's probe points, spectrum and
-/// fine density probe, on the first recorded grid.
-struct Probes {
-    points: Vec<Vec3>,
-    spectrum: SpectralShare,
-    density: DensityProbe,
-}
-
-impl Probes {
-    fn new(domain: Domain) -> Self {
-        Self {
-            points: metrics::probe_points(&domain, crate::run::PROBE_POINTS, 1),
-            spectrum: SpectralShare::new(domain.dims),
-            density: DensityProbe::new(domain),
-        }
-    }
-}
-
 /// The output folder and what has been written to it.
 pub struct Recorder {
     out: PathBuf,
     /// A simulation holding the script's state, for the run's writers.
     shell: Option<Simulation>,
-    probes: Option<Probes>,
+    /// The fine measures' state, on the first recorded grid.
+    probes: Option<FineProbes>,
     log: Option<Log>,
     last_row: Instant,
     /// Frames whose volumes were written.
@@ -291,19 +272,11 @@ impl Recorder {
         self.load(velocity, &caches, "record")?;
         let sim = self.shell.as_ref().expect("loaded above");
         let domain = *sim.domain();
-        let probes = self.probes.get_or_insert_with(|| Probes::new(domain));
-        let StepMeasures {
-            velocity,
-            div_interp,
-            mirror,
-        } = StepMeasures::take(sim, &probes.points);
+        let probes = self.probes.get_or_insert_with(|| FineProbes::new(domain));
+        let StepMeasures { velocity, mirror } = StepMeasures::take(sim);
         let (div, max_u) = (velocity.divergence, velocity.mirror.max_norm);
-        let (measures, ke_top_octave) = if fine {
-            let (m, ke) = fine_measures(sim, &mut probes.density, &mut probes.spectrum);
-            (Some(m), ke)
-        } else {
-            (None, f64::NAN)
-        };
+        let fine = fine.then(|| probes.measure(sim));
+        let div_interp = fine.as_ref().map(|f| f.div_interp);
         let mut row = vec![
             Cell::Int(step),
             Cell::F32(step as f32 * dt as f32),
@@ -311,12 +284,12 @@ impl Recorder {
             Cell::F32(max_u * dt as f32 / domain.cell),
             Cell::F32(div.rms),
             Cell::F32(div.max),
-            Cell::F32(div_interp.rms),
-            Cell::F32(div_interp.max),
-            Cell::F64(ke_top_octave),
+            Cell::F32(div_interp.map_or(f32::NAN, |d| d.rms)),
+            Cell::F32(div_interp.map_or(f32::NAN, |d| d.max)),
+            Cell::F64(fine.as_ref().map_or(f64::NAN, |f| f.ke_top_octave)),
         ];
         for n in 0..sim.gases.len() {
-            let m = measures.as_ref().map(|m| m[n]);
+            let m = fine.as_ref().map(|f| f.densities[n]);
             let value = |f: fn(&DensityMeasures) -> f64| Cell::F64(m.as_ref().map_or(f64::NAN, f));
             row.extend([
                 value(|m| m.mass),

@@ -156,6 +156,9 @@ fn hot_cold_script_reproduces_run_hot_cold() {
         num(&scr[9], "hot_mass") > 0.0,
         "step 10 has no fine measures"
     );
+    // The interpolant's divergence is a fine measure: at step 10, not at 1.
+    assert!(num(&run[9], "div_interp_rms") > 0.0);
+    assert!(num(&run[0], "div_interp_rms").is_nan());
 }
 
 /// The script's `metrics.csv` header is `smokelab run`'s columns that a
