@@ -30,8 +30,11 @@
 //!   run's metrics at the default cadence (`metrics_every` = 10) ÷ step;
 //! - **peers** (`--peers PYTHON`): `taichi_advect.py N 2 f32` and
 //!   `fft_py.py N 2` from `../shared/peers/` (or `$SMOKELAB_PEERS_DIR`) at
-//!   the same sizes in the same run, each right after smokelab's at that
-//!   size; the composite peer step is Taichi's
+//!   the same sizes in the same run, each run once right before smokelab's
+//!   rounds at that size and once right after (their own processes cannot
+//!   be interleaved round by round), the mean of the two taken, so a load
+//!   that drifts during the size's measurements weighs on both sides alike;
+//!   the composite peer step is Taichi's
 //!   fused advection of 5 fields (Euler backtrace) plus three pyFFTW f32
 //!   pairs, compared with smokelab's step with the same Euler backtrace
 //!   (also measured, 2 threads). Without the flag the peer columns are
@@ -121,10 +124,14 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
     let mut rows = vec![];
     let mut peer_rows = peers.as_ref().map(|_| vec![]);
     for &res in &sizes {
+        // Each size's peers right before and right after smokelab's.
+        let before = peers.as_ref().map(|p| p.measure(res)).transpose()?;
         rows.push(measure(res, warm, steps, &pools)?);
-        // Each size's peers right after smokelab's, under the same load.
-        if let (Some(p), Some(r)) = (&peers, &mut peer_rows) {
-            r.extend(p.measure(&[res])?);
+        if let (Some(p), Some(r), Some(before)) = (&peers, &mut peer_rows, before) {
+            r.push(PeerRow {
+                res,
+                runs: [before, p.measure(res)?],
+            });
         }
         bar.inc(1);
     }
@@ -159,9 +166,12 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
             (Some(p), Some(r)) => serde_json::json!({
                 "python": p.python,
                 "scripts": p.dir,
-                "composite": "taichi_advect.py advect5 (Euler) + 3 × pyfftw float32 pair",
+                "composite": "taichi_advect.py advect5 (Euler) + 3 × pyfftw float32 pair; each size's peers run before and after smokelab's rounds, the mean of the two",
                 "rows": r.iter().map(|x| serde_json::json!({
-                    "res": x.res, "taichi_advect_ms": x.taichi_ms, "pyfftw_pair_ms": x.pyfftw_ms
+                    "res": x.res,
+                    "runs": x.runs.map(|p| serde_json::json!({
+                        "taichi_advect_ms": p.taichi_ms, "pyfftw_pair_ms": p.pyfftw_ms
+                    })),
                 })).collect::<Vec<_>>(),
             }),
             _ => serde_json::json!("absent: run with --peers PYTHON"),
@@ -411,17 +421,35 @@ struct Peers {
     dir: PathBuf,
 }
 
-/// Medians of one resolution's peer rows, ms.
-struct PeerRow {
-    res: usize,
+/// One run of the peer scripts at one resolution: their medians, ms.
+#[derive(Clone, Copy)]
+struct PeerRun {
     taichi_ms: f64,
     pyfftw_ms: f64,
 }
 
-impl PeerRow {
+impl PeerRun {
     /// Taichi's advection plus three pyFFTW pairs.
     fn composite_ms(&self) -> f64 {
         self.taichi_ms + 3.0 * self.pyfftw_ms
+    }
+}
+
+/// The peers at one resolution, run before and after smokelab's rounds.
+struct PeerRow {
+    res: usize,
+    runs: [PeerRun; 2],
+}
+
+impl PeerRow {
+    /// The mean of the two runs of `part`.
+    fn mean(&self, part: impl Fn(&PeerRun) -> f64) -> f64 {
+        0.5 * (part(&self.runs[0]) + part(&self.runs[1]))
+    }
+
+    /// The composite peer step, the mean of the two runs'.
+    fn composite_ms(&self) -> f64 {
+        self.mean(PeerRun::composite_ms)
     }
 }
 
@@ -491,15 +519,11 @@ impl Peers {
             .collect())
     }
 
-    /// Both scripts at `sizes`, 2 threads, f32.
-    fn measure(&self, sizes: &[usize]) -> Result<Vec<PeerRow>> {
-        let list = sizes
-            .iter()
-            .map(usize::to_string)
-            .collect::<Vec<_>>()
-            .join(",");
-        let taichi = self.rows("taichi_advect.py", &[&list, "2", "f32"])?;
-        let fft = self.rows("fft_py.py", &[&list, "2"])?;
+    /// Both scripts at `n`³, 2 threads, f32.
+    fn measure(&self, n: usize) -> Result<PeerRun> {
+        let size = n.to_string();
+        let taichi = self.rows("taichi_advect.py", &[&size, "2", "f32"])?;
+        let fft = self.rows("fft_py.py", &[&size, "2"])?;
         // Columns: impl, dtype, N, threads, what, median_ms, …
         let find = |rows: &[Vec<String>], imp: &str, dtype: &str, n: usize| -> Result<f64> {
             rows.iter()
@@ -507,16 +531,10 @@ impl Peers {
                 .and_then(|r| r[5].parse().ok())
                 .with_context(|| format!("no {imp} {dtype} row for N = {n} in the peers' output"))
         };
-        sizes
-            .iter()
-            .map(|&n| {
-                Ok(PeerRow {
-                    res: n,
-                    taichi_ms: find(&taichi, "taichi_sl_advect_5fields", "float32", n)?,
-                    pyfftw_ms: find(&fft, "pyfftw", "float32", n)?,
-                })
-            })
-            .collect()
+        Ok(PeerRun {
+            taichi_ms: find(&taichi, "taichi_sl_advect_5fields", "float32", n)?,
+            pyfftw_ms: find(&fft, "pyfftw", "float32", n)?,
+        })
     }
 }
 
@@ -550,6 +568,8 @@ fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()>
         cols.extend([
             "peer_taichi_advect_ms",
             "peer_pyfftw_pair_ms",
+            "peer_ms_before",
+            "peer_ms_after",
             "peer_ms",
             "peer_over_step_euler",
         ]);
@@ -584,8 +604,10 @@ fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()>
             ];
             if let Some(p) = peers.map(|p| &p[i]) {
                 v.extend([
-                    p.taichi_ms,
-                    p.pyfftw_ms,
+                    p.mean(|r| r.taichi_ms),
+                    p.mean(|r| r.pyfftw_ms),
+                    p.runs[0].composite_ms(),
+                    p.runs[1].composite_ms(),
                     p.composite_ms(),
                     p.composite_ms() / r.step_euler_ms,
                 ]);

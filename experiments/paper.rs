@@ -79,8 +79,9 @@ fn performance(perf: &Path) -> Result<String> {
     let load = |k: &str| extra[k].as_str().unwrap_or("unrecorded").to_string();
     let peers = if extra["peers"].is_object() {
         "Peer: Taichi's fused semi-Lagrangian advection of five fields (Euler \
-         backtrace) plus three pyFFTW f32 pairs, run right after smokelab at \
-         each size and compared with smokelab's Euler step."
+         backtrace) plus three pyFFTW f32 pairs, run right before and right \
+         after smokelab at each size (the mean of the two) and compared with \
+         smokelab's Euler step."
     } else {
         "The peers were not run (`--peers PYTHON` adds them)."
     };
