@@ -49,9 +49,11 @@
 //! resolution (the sources' cell averages, the FFT plans; slow at 256³) is
 //! timed apart as `setup_s`.
 //!
-//! Run: `smokelab experiment P-1 [--peers PYTHON]` (2 warm-up and 4 timed
-//! steps per resolution, about 2–3 minutes on 2 busy cores, a minute of it
-//! the 256³ setup; the peers add a few minutes; `--full` 10 and 15 steps;
+//! Run: `smokelab experiment P-1 [--peers PYTHON]` (2 warm-up and 8 timed
+//! steps per resolution — eight rounds, so that the medians outlast a slow
+//! spell of a shared machine; with four, one run's 64³ Euler median came
+//! out above its RK2 one — about 2–3 minutes on 2 busy cores, a minute of
+//! it the 256³ setup; the peers add a minute; `--full` 10 and 15 steps;
 //! `--smoke` 16³ and 32³, 1 and 3). Writes `results/perf/`: `data.csv`
 //! (one row per resolution), `time.png` (step time against cells, log-log,
 //! with the fit, the floor and the peer), `threads.png` (speed-up),
@@ -94,7 +96,7 @@ pub const EXPERIMENT: Experiment = Experiment {
 fn plan(size: Size) -> (Vec<usize>, usize, usize) {
     match size {
         Size::Smoke => (vec![16, 32], 1, 3),
-        Size::Default => (vec![32, 64, 128, 256], 2, 4),
+        Size::Default => (vec![32, 64, 128, 256], 2, 8),
         Size::Full => (vec![32, 64, 128, 256], 10, 15),
     }
 }

@@ -329,11 +329,15 @@ impl Plot {
         ensure_font();
         root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
         let (xr, yr) = self.ranges()?;
+        let log = |r: Range<f64>| {
+            let ticks = log_ticks(&r);
+            r.log_scale().with_key_points(ticks)
+        };
         match (self.log_x, self.log_y) {
             (false, false) => self.draw_axes(root, xr, yr),
-            (true, false) => self.draw_axes(root, xr.log_scale(), yr),
-            (false, true) => self.draw_axes(root, xr, yr.log_scale()),
-            (true, true) => self.draw_axes(root, xr.log_scale(), yr.log_scale()),
+            (true, false) => self.draw_axes(root, log(xr), yr),
+            (false, true) => self.draw_axes(root, xr, log(yr)),
+            (true, true) => self.draw_axes(root, log(xr), log(yr)),
         }
     }
 
@@ -432,6 +436,52 @@ impl Plot {
     }
 }
 
+/// The ticks of a log axis over `r` (`0 < r.start < r.end`): the powers of
+/// ten in it; with their 2× and 5× when it spans under three decades, with
+/// every multiple 1–9× under half a decade, and only every k-th power over
+/// ten decades (k the span ÷ 10, rounded up). The powers are counted from
+/// the one at or below `r.start`, so the part of a decade below the first
+/// power in range is labelled too (plotters' own log ticks start at that
+/// power and leave it bare). A range with fewer than two such ticks gets
+/// evenly spaced ticks of a 1-2-5 step instead.
+fn log_ticks(r: &Range<f64>) -> Vec<f64> {
+    let (lo, hi) = (r.start, r.end);
+    let span = (hi / lo).log10();
+    let (multiples, every): (&[f64], i32) = if span < 0.5 {
+        (&[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0], 1)
+    } else if span < 3.0 {
+        (&[1.0, 2.0, 5.0], 1)
+    } else {
+        (&[1.0], (span / 10.0).ceil().max(1.0) as i32)
+    };
+    let first = lo.log10().floor() as i32;
+    let ticks: Vec<f64> = (first..=hi.log10().ceil() as i32)
+        .filter(|e| (e - first) % every == 0)
+        // m·10^e correctly rounded: powers of ten to 10²² are exact.
+        .flat_map(|e| {
+            let scale = 10f64.powi(e.abs());
+            multiples
+                .iter()
+                .map(move |m| if e < 0 { m / scale } else { m * scale })
+        })
+        .filter(|v| r.contains(v))
+        .collect();
+    if ticks.len() >= 2 {
+        return ticks;
+    }
+    let magnitude = 10f64.powf(((hi - lo) / 5.0).log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * magnitude)
+        .find(|s| (hi - lo) / s <= 6.0)
+        .expect("ten times the magnitude is at most 6 steps");
+    let start = (lo / step).ceil() as i64;
+    (start..)
+        .map(|i| i as f64 * step)
+        .take_while(|v| *v <= hi)
+        .collect()
+}
+
 /// A tick label with at most four significant digits and no trailing
 /// zeros; scientific notation outside `[10⁻³, 10⁵)`.
 pub fn tick_label(v: f64) -> String {
@@ -511,6 +561,31 @@ mod tests {
             let text = std::fs::read_to_string(&svg).unwrap();
             assert!(text.contains("slope 2.00") && text.contains("<svg"));
         }
+    }
+
+    /// The decade below the first power of ten is labelled (06-5's wall
+    /// times, 0.0025–0.13 s, had no label under 0.01); fourteen decades get
+    /// at most ten labels; a range inside one decade's steps still two.
+    #[test]
+    fn log_ticks_cover_the_range() {
+        let t = log_ticks(&(0.0025..0.13));
+        assert_eq!(t.first().copied(), Some(0.005));
+        assert!(
+            t.contains(&0.01) && t.contains(&0.1) && t.iter().all(|v| (0.0025..0.13).contains(v))
+        );
+        let t = log_ticks(&(1e-15..2.0));
+        assert!(t.len() <= 10 && t.len() >= 7, "{t:?}");
+        assert!(t
+            .iter()
+            .all(|v| (v.log10().round() - v.log10()).abs() < 1e-9));
+        let t = log_ticks(&(0.12..0.15));
+        assert!(
+            t.len() >= 2 && t.iter().all(|v| (0.12..=0.15).contains(v)),
+            "{t:?}"
+        );
+        let t = log_ticks(&(3.0..700.0));
+        assert_eq!(t, [5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0]);
+        assert_eq!(log_ticks(&(4096.0..32768.0)), [5000.0, 10000.0, 20000.0]);
     }
 
     #[test]
