@@ -188,7 +188,7 @@ pub struct SolverFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub save_every: Option<usize>,
-    /// Fine-sampled density metrics every K steps (costly for gridless; default 10).
+    /// Fine metrics (2× densities, spectra, interpolant divergence) every K steps (default 10).
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub metrics_every: Option<usize>,

@@ -17,7 +17,8 @@ pub struct StageTimes {
     pub project: f64,
     /// Writing volumes, previews and metrics.
     pub output: f64,
-    /// Fine-sampled density metrics (mass, gradient, spectrum).
+    /// The run's measures: the per-step ones and, on their cadence, the fine
+    /// ones (densities at 2×, spectra, the interpolant's divergence).
     pub metrics: f64,
 }
 

@@ -42,8 +42,8 @@ use super::types::{Fallible, Region, ScalarCache, ScalarF, VectorCache};
 use crate::run::{FineProbes, StepMeasures};
 use crate::table::Log;
 
-/// The steps whose fine density measures `record(frame, dt, velocity,
-/// gases)` takes: `smokelab run`'s default `--metrics-every`.
+/// The steps whose fine measures `record(frame, dt, velocity, gases)`
+/// takes: `smokelab run`'s default `--metrics-every`.
 pub const FINE_EVERY: usize = 10;
 
 /// One cell of a `metrics.csv` row: an integer or a number, written as

@@ -62,7 +62,8 @@ pub struct SolverConfig {
     pub sample_res: Option<usize>,
     /// Write volumes and a preview every this many frames (0: metrics only).
     pub save_every: usize,
-    /// Compute the fine-sampled density metrics every this many steps (≥ 1).
+    /// Compute the fine metrics (densities sampled at 2×, spectra, the
+    /// interpolant's divergence) every this many steps (≥ 1).
     pub metrics_every: usize,
     /// Run even if the memory estimate exceeds the available memory.
     pub force: bool,
