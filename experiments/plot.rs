@@ -564,7 +564,7 @@ mod tests {
     }
 
     /// The decade below the first power of ten is labelled (06-5's wall
-    /// times, 0.0025–0.13 s, had no label under 0.01); fourteen decades get
+    /// times, 0.0025–0.13 s, had no label under 0.01); fifteen decades get
     /// at most ten labels; a range inside one decade's steps still two.
     #[test]
     fn log_ticks_cover_the_range() {
