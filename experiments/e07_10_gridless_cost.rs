@@ -68,8 +68,7 @@ use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
 use crate::sphere_wall_series::{
-    fastest_render, owned_frames, plot_costs, render_wall, study_size, warm_up, CostRow, Setup,
-    TIMING_PASSES,
+    fastest_render, owned_frames, plot_costs, study_size, warm_up, CostRow, Setup, TIMING_PASSES,
 };
 use crate::table::write_rows;
 use image::RgbImage;
@@ -124,9 +123,7 @@ fn run(ctx: &Context) -> Result<()> {
     for _ in 0..TIMING_PASSES {
         for ((k, gridded), pair) in snapshots.iter().zip(rows.chunks_mut(MARCHES.len())) {
             for ((_, div), row) in MARCHES.iter().zip(pair) {
-                let state = unskipped(&wall, gridded, &flow, *k)?;
-                let (_, stats) = render_wall(&state, &flow, *div, (w, h))?;
-                row.render_seconds = row.render_seconds.min(stats.seconds);
+                row.time_again(&unskipped(&wall, gridded, &flow, *k)?, &flow, *div, (w, h))?;
             }
         }
     }

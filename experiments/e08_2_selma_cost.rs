@@ -44,7 +44,7 @@ use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
 use crate::sphere_wall_series::{
-    owned_frames, plot_costs, render_wall, study_size, warm_up, CostRow, Setup, TIMING_PASSES,
+    owned_frames, plot_costs, study_size, warm_up, CostRow, Setup, TIMING_PASSES,
 };
 use crate::table::write_rows;
 use smokelab::io::{self, manifest::Manifest};
@@ -114,8 +114,7 @@ fn run(ctx: &Context) -> Result<()> {
     // Each later pass renders every point once more, a pass apart.
     for _ in 0..TIMING_PASSES {
         for ((_, _, build), row) in points.iter().zip(&mut rows) {
-            let (_, stats) = render_wall(&build()?, &flow, MARCH_DIV, (w, h))?;
-            row.render_seconds = row.render_seconds.min(stats.seconds);
+            row.time_again(&build()?, &flow, MARCH_DIV, (w, h))?;
         }
     }
     write_rows(&ctx.out.join("data.csv"), &rows)?;

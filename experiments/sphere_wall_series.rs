@@ -291,7 +291,6 @@ pub(crate) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Re
     )
 }
 
-/// One measured render of a cost study: a row of its `data.csv`.
 /// Passes of the cost studies over all their points after the measured
 /// one, each rendering every point once more; a point's time is the
 /// fastest of all its renders. A slow spell of the shared machine
@@ -327,13 +326,15 @@ pub(crate) fn fastest_render(
     Ok((img, stats, walk_steps))
 }
 
+/// One measured render of a cost study: a row of its `data.csv`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub(crate) struct CostRow {
     /// Series name (`march=cell`, `selma-fine`, …).
     pub series: String,
     /// The x of the plots: gridless frames (07-10) or advected frames (08-2).
     pub frames: usize,
-    /// Render wall time, seconds: the fastest of [`RENDER_REPEATS`] renders.
+    /// Render wall time, seconds: the fastest of [`RENDER_REPEATS`] renders,
+    /// then of the later passes' ([`Self::time_again`]).
     pub render_seconds: f64,
     /// Bytes held by the density representation, counted (each buffer once).
     pub density_bytes: usize,
@@ -381,6 +382,20 @@ impl CostRow {
             walk_steps,
         };
         Ok((row, img))
+    }
+
+    /// A later timing pass ([`TIMING_PASSES`]): render `state` (the point
+    /// rebuilt) once more; `render_seconds` keeps the fastest.
+    pub fn time_again(
+        &mut self,
+        state: &AdvectedWall,
+        flow: &FlowHistory,
+        march_div: f32,
+        size: (u32, u32),
+    ) -> Result<()> {
+        let (_, stats) = render_wall(state, flow, march_div, size)?;
+        self.render_seconds = self.render_seconds.min(stats.seconds);
+        Ok(())
     }
 }
 
