@@ -129,6 +129,49 @@ unsafe fn x_pairs16(data: &[f32], at: __m512i, lanes: __mmask16) -> [__m512; 2] 
     ]
 }
 
+/// The x0 and x1 corners `data[row + x0]`, `data[row + x1]` of sixteen
+/// lanes: pairs gathered for the lanes of `pairs` (those whose x1 is
+/// x0 + 1, [`x_pairs16`]), the others — a stencil wrapped or clamped at
+/// the x edge, a few lanes of a group — loaded one by one. Where a group
+/// touches the edge, this is four times cheaper than two 32-bit gathers of
+/// all sixteen lanes (the wrapping stencil's corner rows were 40 % of a
+/// gridless run's profile).
+///
+/// # Safety
+/// Every lane has `0 ≤ row + x0, row + x1 < data.len()`, and those of
+/// `pairs` also `row + x0 + 1 < data.len()`; the CPU has AVX-512F.
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn x_corners16(
+    data: &[f32],
+    row: __m512i,
+    x: [__m512i; 2],
+    pairs: __mmask16,
+) -> [__m512; 2] {
+    let at = x.map(|x| _mm512_add_epi32(row, x));
+    // SAFETY: as this function's.
+    let v = unsafe { x_pairs16(data, at[0], pairs) };
+    let edge = !pairs;
+    if edge == 0 {
+        return v;
+    }
+    let mut index = [0i32; 32];
+    // SAFETY: `index` holds two vectors of sixteen lanes.
+    unsafe {
+        _mm512_storeu_si512(index.as_mut_ptr().cast(), at[0]);
+        _mm512_storeu_si512(index.as_mut_ptr().add(16).cast(), at[1]);
+    }
+    let mut v = v;
+    for l in (0..16).filter(|l| edge & (1 << l) != 0) {
+        let lane = 1 << l;
+        for (c, v) in v.iter_mut().enumerate() {
+            let value = data[index[16 * c + l] as usize];
+            *v = _mm512_mask_mov_ps(*v, lane, _mm512_set1_ps(value));
+        }
+    }
+    v
+}
+
 /// 32 consecutive values of one lattice row that hold the x0 and x1
 /// corners of some lanes (and, at fixed offsets, those of further corner
 /// rows).
@@ -363,24 +406,22 @@ unsafe fn stencil16(
         [_mm512_mullo_epi32(z0, my), _mm512_mullo_epi32(z1, my)],
     );
     let (wx, wy, wz) = (weights(tx), weights(ty), weights(tz));
-    // At a wrapped or clamped x edge the two x-corners are not adjacent in
-    // memory and take 32-bit gathers.
-    let adjacent = _mm512_cmpneq_epi32_mask(x1, _mm512_add_epi32(x0, _mm512_set1_epi32(1))) == 0;
+    // Where a lane's x1 is x0 + 1 its two x-corners are adjacent in memory
+    // (a pair); at a wrapped or clamped x edge they are not.
+    let pairs = _mm512_cmpeq_epi32_mask(x1, _mm512_add_epi32(x0, _mm512_set1_epi32(1)));
     let mut acc = _mm512_setzero_ps();
     for c in 0..4 {
         let (cy, cz) = (c & 1, c >> 1);
         let row = _mm512_mullo_epi32(_mm512_add_epi32(z[cz], y[cy]), mx);
         let window = Window::new(data.len(), (row, [x0, x1]), (first(row), first(x0)), !0, 0);
         // SAFETY: every index is a lattice index (`axis16`: 0 ≤ x0, x1 < mx,
-        // and so on; indices below 2³⁰, `simd::lattices`), so it and, where
-        // `adjacent`, the next one (x0 ≤ mx − 2) are inside `data`; a
-        // window ends inside (`Window::new`, shift 0).
+        // and so on; indices below 2³⁰, `simd::lattices`), so it and, for
+        // the lanes of `pairs`, the next one (x0 ≤ mx − 2) are inside
+        // `data`; a window ends inside (`Window::new`, shift 0).
         let v = unsafe {
             match window.filter(|w| w.lanes == 0xffff) {
                 Some(w) => w.fetch(data, 0),
-                None if adjacent => x_pairs16(data, _mm512_add_epi32(row, x0), !0),
-                None => [x0, x1]
-                    .map(|x| _mm512_i32gather_ps::<4>(_mm512_add_epi32(row, x), data.as_ptr())),
+                None => x_corners16(data, row, [x0, x1], pairs),
             }
         };
         [acc] = add_rows([acc], wx, wy[cy], wz[cz], [v]);
@@ -390,43 +431,27 @@ unsafe fn stencil16(
 
 /// The velocity at sixteen points `g` (cell-centre grid coordinates):
 /// component `a` trilinear on its lattice at `g + ½e_a`
-/// (`FaceSampler::at`) — through [`trilinear16`] if every lane's stencil
-/// is inside every lattice, else through [`stencil16`], wrapped or clamped
-/// by `wrap` — and the lanes it computed (those [`stencil16`] leaves to the
-/// scalar path are not).
+/// (`FaceSampler::at`) — each component by [`interpolate16`]: through
+/// [`trilinear16`] if every lane's stencil is inside its lattice, else
+/// through [`stencil16`], wrapped or clamped by `wrap` — and the lanes it
+/// computed (those [`stencil16`] leaves to the scalar path are not).
 ///
 /// # Safety
 /// The CPU has AVX-512F and `vel.dims` passes `simd::lattices`.
 #[inline]
 #[target_feature(enable = "avx512f")]
 unsafe fn velocity16(vel: Lattices, wrap: Wrap, g: [__m512; 3]) -> ([__m512; 3], __mmask16) {
-    let at = |b: usize| {
+    let mut u = [_mm512_setzero_ps(); 3];
+    let mut done = 0xffff;
+    for (b, ub) in u.iter_mut().enumerate() {
         let mut p = g;
         p[b] = _mm512_add_ps(p[b], _mm512_set1_ps(0.5));
-        p
-    };
-    let mut u = [_mm512_setzero_ps(); 3];
-    let mut inside = true;
-    for (b, ub) in u.iter_mut().enumerate() {
         // SAFETY: the lattice of b has vel.data[b]'s length (fits).
-        let ([v], lanes) = unsafe { trilinear16([vel.data[b]], vel.dims[b], at(b)) };
+        let (v, lanes) = unsafe { interpolate16(vel.data[b], vel.dims[b], wrap, p) };
         *ub = v;
-        if lanes != 0xffff {
-            inside = false;
-            break;
-        }
+        done &= lanes as __mmask16;
     }
-    if inside {
-        return (u, 0xffff);
-    }
-    let mut bad = 0;
-    for (b, ub) in u.iter_mut().enumerate() {
-        // SAFETY: as above.
-        let (v, lanes) = unsafe { stencil16(vel.data[b], vel.dims[b], wrap, at(b)) };
-        *ub = v;
-        bad |= lanes;
-    }
-    (u, !bad)
+    (u, done)
 }
 
 /// Departure points of sixteen points `c` (grid coordinates) whose
