@@ -465,13 +465,46 @@ fn write_shared(fields: &[&GridlessField], grids: &mut [&mut ScalarGrid]) {
             next.map(|s| s.expect("one slab per z")).collect()
         })
         .collect();
-    slabs
-        .into_par_iter()
-        .enumerate()
-        .for_each_init(Vec::new, |points, (k, mut outs)| {
-            domain.slab_centers(k, points);
-            GridlessField::eval_batch_shared(fields, points, &mut outs);
-        });
+    let order = walk_order(domain.dims[0], domain.dims[1]);
+    slabs.into_par_iter().enumerate().for_each_init(
+        || (Vec::new(), Vec::new(), vec![vec![0.0; slab]; fields.len()]),
+        |(centres, points, values), (k, outs)| {
+            domain.slab_centers(k, centres);
+            points.clear();
+            points.extend(order.iter().map(|&c| centres[c]));
+            let mut walked: Vec<&mut [f32]> = values.iter_mut().map(|v| &mut v[..]).collect();
+            GridlessField::eval_batch_shared(fields, points, &mut walked);
+            for (out, v) in outs.into_iter().zip(&*values) {
+                for (&c, &v) in order.iter().zip(v) {
+                    out[c] = v;
+                }
+            }
+        },
+    );
+}
+
+/// The order in which one z-slab's cell centres (rows of `nx`, `ny` rows)
+/// are walked, so that the groups of the sixteen-lane kernel keep to few
+/// lattice rows and away from the box's x edge, where their stencils are
+/// fetched by row windows ([`crate::advection::departure_points`]): runs of
+/// sixteen cells inside each row from its second cell on; then the inner
+/// cells the runs leave, row after row; then the rows' two ends, whose
+/// stencils wrap. A point's walk does not depend on its group: the same
+/// bits in any order. (Walked in plain row order, a group took in a row's
+/// end whenever `nx` is not a multiple of sixteen.)
+fn walk_order(nx: usize, ny: usize) -> Vec<usize> {
+    const RUN: usize = 16;
+    let runs = 1..1 + nx.saturating_sub(2) / RUN * RUN;
+    let inner = 1..nx.saturating_sub(1).max(1);
+    let rows = |cells: &dyn Fn(usize) -> bool| -> Vec<usize> {
+        (0..ny)
+            .flat_map(|j| (0..nx).filter(|&i| cells(i)).map(move |i| j * nx + i))
+            .collect()
+    };
+    let mut order = rows(&|i| runs.contains(&i));
+    order.extend(rows(&|i| inner.contains(&i) && !runs.contains(&i)));
+    order.extend(rows(&|i| !inner.contains(&i)));
+    order
 }
 
 /// `grids[f] = fields[f]` at the cell centres of the grids (one domain),
@@ -497,3 +530,37 @@ pub(super) fn write_grouped(fields: &[&GridlessField], grids: &mut [&mut ScalarG
 /// One stored step of a gridless history: its velocity grid (shared between
 /// gases), Δt and backtrace.
 pub type HistoryStep = (Arc<FaceGrid>, f32, Backtrace);
+
+#[cfg(test)]
+mod tests {
+    use super::walk_order;
+
+    /// Every cell once; the first groups of sixteen each inside one row and
+    /// off its ends; the ends last.
+    #[test]
+    fn walk_order_is_a_permutation_with_row_runs_first() {
+        for (nx, ny) in [(40, 3), (50, 2), (18, 4), (17, 2), (2, 3), (1, 1)] {
+            let order = walk_order(nx, ny);
+            let mut seen = order.clone();
+            seen.sort_unstable();
+            assert_eq!(seen, (0..nx * ny).collect::<Vec<_>>(), "{nx}×{ny}");
+            let runs = (nx.saturating_sub(2) / 16) * ny;
+            for group in order.chunks_exact(16).take(runs) {
+                let row = group[0] / nx;
+                assert!(
+                    group
+                        .iter()
+                        .all(|&c| c / nx == row && c % nx != 0 && c % nx != nx - 1),
+                    "{nx}×{ny}: {group:?}"
+                );
+            }
+            let ends = if nx > 1 { 2 * ny } else { ny };
+            assert!(
+                order[nx * ny - ends..]
+                    .iter()
+                    .all(|&c| c % nx == 0 || c % nx == nx - 1),
+                "{nx}×{ny}: the rows' ends come last"
+            );
+        }
+    }
+}
