@@ -18,7 +18,9 @@
 //! fetched by two loads and picked by two permutes, then holds the x0 and
 //! x1 corners of every lane in that row. [`trilinear16`] groups the lanes
 //! by row, a window each (up to [`WINDOWS`]); lanes left over, and wrapped
-//! stencils whose lanes span rows, take 64-bit pair gathers.
+//! stencils whose lanes span rows, take 64-bit pair gathers, except a
+//! wrapped stencil's lanes at the x edge, whose two x-corners are not
+//! adjacent: those are loaded one by one ([`x_corners16`]).
 //!
 //! Every lane does the scalar sweep's floating-point operations in the same
 //! order (products and sums, no fused multiply-add): the results are the
