@@ -134,10 +134,10 @@ unsafe fn x_pairs16(data: &[f32], at: __m512i, lanes: __mmask16) -> [__m512; 2] 
 /// The x0 and x1 corners `data[row + x0]`, `data[row + x1]` of sixteen
 /// lanes: pairs gathered for the lanes of `pairs` (those whose x1 is
 /// x0 + 1, [`x_pairs16`]), the others — a stencil wrapped or clamped at
-/// the x edge, a few lanes of a group — loaded one by one. Where a group
-/// touches the edge, this is four times cheaper than two 32-bit gathers of
-/// all sixteen lanes (the wrapping stencil's corner rows were 40 % of a
-/// gridless run's profile).
+/// the x edge, a few lanes of a group — loaded one by one. (Two 32-bit
+/// gathers of all sixteen lanes whenever one lane was at the edge had been
+/// about half the wrapping stencil's time, which was 43 % of a gridless
+/// run's profile at 40³.)
 ///
 /// # Safety
 /// Every lane has `0 ≤ row + x0, row + x1 < data.len()`, and those of
@@ -152,7 +152,7 @@ unsafe fn x_corners16(
 ) -> [__m512; 2] {
     let at = x.map(|x| _mm512_add_epi32(row, x));
     // SAFETY: as this function's.
-    let v = unsafe { x_pairs16(data, at[0], pairs) };
+    let mut v = unsafe { x_pairs16(data, at[0], pairs) };
     let edge = !pairs;
     if edge == 0 {
         return v;
@@ -163,7 +163,6 @@ unsafe fn x_corners16(
         _mm512_storeu_si512(index.as_mut_ptr().cast(), at[0]);
         _mm512_storeu_si512(index.as_mut_ptr().add(16).cast(), at[1]);
     }
-    let mut v = v;
     for l in (0..16).filter(|l| edge & (1 << l) != 0) {
         let lane = 1 << l;
         for (c, v) in v.iter_mut().enumerate() {
