@@ -322,20 +322,37 @@ fn face_sweep<const A: usize>(
                         false => vel.face_neighbours(A, b, [1, j, k]),
                     };
                     let first = [first(0), first(1), first(2)];
-                    for i in group_starts(covered.clone(), 16) {
-                        let f = [i, j, k];
-                        let around = first.map(|p| p.map(|p| p + i - 1));
+                    // Two groups at a time, their interpolations
+                    // interleaved (`simd512::faces16`); an odd one alone.
+                    let trace = (dt_cells, backtrace);
+                    let mut starts = group_starts(covered.clone(), 16);
+                    while let Some(i) = starts.next() {
                         // SAFETY: AVX-512F (`sixteen`), lattice sizes checked
                         // by simd::lattices, `data` has A's lattice length
-                        // (asserted above); 1 ≤ i, i + 16 ≤ n_x − 1, so no
-                        // lane's faces wrap along x (`face_velocities16`).
+                        // (asserted above); 1 ≤ i, i + 16 ≤ n_x − 1 for each
+                        // start, so no lane's faces wrap along x
+                        // (`face_velocities16`).
                         let left = unsafe {
-                            let dst = (data, &mut row[i..]);
-                            let trace = (dt_cells, backtrace);
-                            simd512::faces16::<A>(lat, wrap, dst, f, &around, trace)
+                            let dst = (data, &mut *row);
+                            match starts.next() {
+                                Some(i2) => {
+                                    let at = ([i, i2], j, k);
+                                    let [l, l2] =
+                                        simd512::faces16::<A, 2>(lat, wrap, dst, at, &first, trace);
+                                    [(i, l), (i2, l2)]
+                                }
+                                None => {
+                                    let at = ([i], j, k);
+                                    let [l] =
+                                        simd512::faces16::<A, 1>(lat, wrap, dst, at, &first, trace);
+                                    [(i, l), (i, 0)]
+                                }
+                            }
                         };
-                        for n in lanes_in(left) {
-                            row[i + n] = scalar([i + n, j, k]);
+                        for (i, left) in left {
+                            for n in lanes_in(left) {
+                                row[i + n] = scalar([i + n, j, k]);
+                            }
                         }
                     }
                 }

@@ -2,8 +2,9 @@
 //! kernels of [`super::simd`] in sixteen lanes, with the trilinear corners
 //! fetched by row windows instead of gathers where the lanes allow.
 //!
-//! - The grid sweeps: sixteen consecutive faces of one x-row ([`faces16`])
-//!   or sixteen cell centres ([`cells16`]) traced back together (Euler or
+//! - The grid sweeps: sixteen consecutive faces of one x-row ([`faces16`],
+//!   two such groups at a time, their interpolations interleaved) or
+//!   sixteen cell centres ([`cells16`]) traced back together (Euler or
 //!   RK2) and interpolated at their departure points ([`faces16`],
 //!   [`sample16`]; several densities at the same points through shared
 //!   corners, [`sample16_grids`]), stencils inside their lattice by
@@ -619,6 +620,50 @@ unsafe fn interpolate16(data: &[f32], d: [usize; 3], wrap: Wrap, g: [__m512; 3])
     (v, u32::from(!bad))
 }
 
+/// [`interpolate16`] of one grid at `N` groups of points `g`: the groups
+/// whose stencils all lie in one [`Window`] ([`Corners::one_window`])
+/// interpolated together, corner row by corner row, so that their
+/// independent chains of loads, permutes and sums overlap (as
+/// [`velocity16_rows`] does for the velocity's components); the others by
+/// [`interpolate16`]. The same operations per group, so the same bits.
+///
+/// # Safety
+/// As [`trilinear16`].
+#[inline]
+#[target_feature(enable = "avx512f")]
+unsafe fn interpolate16_groups<const N: usize>(
+    data: &[f32],
+    d: [usize; 3],
+    wrap: Wrap,
+    g: [[__m512; 3]; N],
+) -> ([__m512; N], [u32; N]) {
+    let mut corners = [Corners::new(d, g[0]); N];
+    let mut windows = [None; N];
+    for n in 0..N {
+        corners[n] = Corners::new(d, g[n]);
+        windows[n] = corners[n].one_window(data.len());
+    }
+    let mut v = [_mm512_setzero_ps(); N];
+    for c in 0..4 {
+        for n in 0..N {
+            if let Some(w) = &windows[n] {
+                // SAFETY: `shifts[c] ≤ shifts[3]`, the window's
+                // `last_shift`, on the lattice of `data`'s length.
+                let x = unsafe { w.fetch(data, corners[n].shifts[c]) };
+                [v[n]] = corners[n].add_row([v[n]], c, [x]);
+            }
+        }
+    }
+    let mut done = [0xffff; N];
+    for n in 0..N {
+        if windows[n].is_none() {
+            // SAFETY: as this function's.
+            (v[n], done[n]) = unsafe { interpolate16(data, d, wrap, g[n]) };
+        }
+    }
+    (v, done)
+}
+
 /// Sixteen values as a vector.
 #[inline]
 #[target_feature(enable = "avx512f")]
@@ -670,9 +715,9 @@ fn row_points(f: [usize; 3], face: Option<usize>) -> [__m512; 3] {
 /// The velocity at the sixteen faces `(i, j, k) … (i + 15, j, k)` of
 /// component `A` as `FaceSampler::at_face` finds it: its own value, each
 /// other component `b` the mean of four faces, read in its order from
-/// `around[b]`, the linear indices of lane 0's four faces
-/// (`FaceSampler::face_neighbours`, wrapped or clamped there), lane `l`'s
-/// `l` values on.
+/// `around[b]` plus `shift`, the linear indices of lane 0's four faces
+/// (`FaceSampler::face_neighbours` of a face `shift` before it along x,
+/// wrapped or clamped there), lane `l`'s `l` values on.
 ///
 /// The caller keeps `1 ≤ i` and `i + 16 ≤ n_x − 1` (`n_x` the cells along
 /// x), where no lane's faces wrap or clamp along x, so each lane's are
@@ -684,6 +729,7 @@ fn face_velocities16<const A: usize>(
     vel: Lattices,
     f: [usize; 3],
     around: &[[usize; 4]; 3],
+    shift: usize,
 ) -> [__m512; 3] {
     let mut u = [_mm512_setzero_ps(); 3];
     for (b, ub) in u.iter_mut().enumerate() {
@@ -694,7 +740,7 @@ fn face_velocities16<const A: usize>(
         }
         let mut sum = _mm512_setzero_ps();
         for p in around[b] {
-            sum = _mm512_add_ps(sum, load16_at(vel.data[b], p));
+            sum = _mm512_add_ps(sum, load16_at(vel.data[b], p + shift));
         }
         *ub = _mm512_mul_ps(_mm512_set1_ps(0.25), sum);
     }
@@ -722,34 +768,44 @@ fn cell_velocities16(vel: Lattices, faces: &[[usize; 2]; 3]) -> [__m512; 3] {
     u
 }
 
-/// The faces `(i, j, k) … (i + 15, j, k)` of component `A`, whose
-/// velocities [`face_velocities16`] finds from `around` (the caller keeps
-/// its bounds on `i`): `data` (laid out like component `A`'s lattice) at
-/// each face's departure point through `vel` over `dt_cells = Δt/Δx`
-/// (stencils wrapped or clamped by `wrap`), into `out`. Returns the lanes
-/// left to the scalar path (bit `l` for lane `l`; those values are
-/// meaningless). Euler and RK2 only.
+/// The faces `(i, j, k) … (i + 15, j, k)` of component `A` for each of
+/// `N` group starts `i` of one row (`starts`, `j`, `k`), whose velocities
+/// [`face_velocities16`] finds from `first`, face `(1, j, k)`'s neighbours
+/// (the caller keeps its bounds on each `i`): `data` (laid out like
+/// component `A`'s lattice) at each face's departure point through `vel`
+/// over `dt_cells = Δt/Δx` (stencils wrapped or clamped by `wrap`), into
+/// `row[i..i + 16]`. The groups' interpolations interleaved
+/// ([`interpolate16_groups`]). Returns per group the lanes left to the
+/// scalar path (bit `l` for lane `l`; those values are meaningless). Euler
+/// and RK2 only.
 ///
 /// # Safety
 /// The CPU has AVX-512F ([`has_avx512`]), `vel.dims` passes
 /// `simd::lattices`, and `data` has component `A`'s lattice length.
 ///
 /// # Panics
-/// If `out` is shorter than sixteen.
+/// If `row` is shorter than a start plus sixteen.
 #[target_feature(enable = "avx512f")]
-pub(super) unsafe fn faces16<const A: usize>(
+pub(super) unsafe fn faces16<const A: usize, const N: usize>(
     vel: Lattices,
     wrap: Wrap,
-    (data, out): (&[f32], &mut [f32]),
-    f: [usize; 3],
-    around: &[[usize; 4]; 3],
-    (dt_cells, backtrace): (f32, Backtrace),
-) -> u32 {
-    let c = row_points(f, Some(A));
-    let u0 = face_velocities16::<A>(vel, f, around);
+    (data, row): (&[f32], &mut [f32]),
+    (starts, j, k): ([usize; N], usize, usize),
+    first: &[[usize; 4]; 3],
+    trace: (f32, Backtrace),
+) -> [u32; N] {
+    let mut c = [[_mm512_setzero_ps(); 3]; N];
+    let mut u0 = c;
+    for n in 0..N {
+        let f = [starts[n], j, k];
+        c[n] = row_points(f, Some(A));
+        u0[n] = face_velocities16::<A>(vel, f, first, starts[n] - 1);
+    }
     // SAFETY: as this function's.
-    let (v, left) = unsafe { face_values16::<A>(vel, wrap, data, (c, u0), (dt_cells, backtrace)) };
-    out[..16].copy_from_slice(&lanes16(v));
+    let (v, left) = unsafe { face_values16::<A, N>(vel, wrap, data, (c, u0), trace) };
+    for n in 0..N {
+        row[starts[n]..starts[n] + 16].copy_from_slice(&lanes16(v[n]));
+    }
     left
 }
 
@@ -774,32 +830,40 @@ pub(super) unsafe fn face_points16<const A: usize>(
         (cv[a], uv[a]) = (load16(&c[a]), load16(&u0[a]));
     }
     // SAFETY: as this function's.
-    let (v, left) = unsafe { face_values16::<A>(vel, wrap, data, (cv, uv), trace) };
+    let ([v], [left]) = unsafe { face_values16::<A, 1>(vel, wrap, data, ([cv], [uv]), trace) };
     *out = lanes16(v);
     left
 }
 
-/// The faces of component `A` at grid coordinates `c` with velocities
-/// `u0`: `data` at their departure points (the tail of [`faces16`] and
-/// [`face_points16`]), and the lanes left to the scalar path.
+/// `N` groups of faces of component `A` at grid coordinates `c` with
+/// velocities `u0`: `data` at their departure points (the tail of
+/// [`faces16`] and [`face_points16`]), and per group the lanes left to the
+/// scalar path.
 ///
 /// # Safety
 /// As [`faces16`].
 #[inline]
 #[target_feature(enable = "avx512f")]
-unsafe fn face_values16<const A: usize>(
+unsafe fn face_values16<const A: usize, const N: usize>(
     vel: Lattices,
     wrap: Wrap,
     data: &[f32],
-    (c, u0): ([__m512; 3], [__m512; 3]),
+    (c, u0): ([[__m512; 3]; N], [[__m512; 3]; N]),
     (dt_cells, backtrace): (f32, Backtrace),
-) -> (__m512, u32) {
-    // SAFETY: as this function's.
-    let (mut g, traced) = unsafe { trace16::<true>(vel, wrap, c, u0, dt_cells, backtrace) };
-    g[A] = _mm512_add_ps(g[A], _mm512_set1_ps(0.5));
+) -> ([__m512; N], [u32; N]) {
+    let mut g = c;
+    let mut traced = [0xffff; N];
+    for n in 0..N {
+        // SAFETY: as this function's.
+        (g[n], traced[n]) = unsafe { trace16::<true>(vel, wrap, c[n], u0[n], dt_cells, backtrace) };
+        g[n][A] = _mm512_add_ps(g[n][A], _mm512_set1_ps(0.5));
+    }
     // SAFETY: `data` has component A's lattice length (caller).
-    let (v, done) = unsafe { interpolate16(data, vel.dims[A], wrap, g) };
-    (v, !(u32::from(traced) & done) & 0xffff)
+    let (v, mut left) = unsafe { interpolate16_groups(data, vel.dims[A], wrap, g) };
+    for n in 0..N {
+        left[n] = !(u32::from(traced[n]) & left[n]) & 0xffff;
+    }
+    (v, left)
 }
 
 /// The departure points of the cell centres `(i, j, k) … (i + 15, j, k)`,
