@@ -737,19 +737,34 @@ fn sample_rows16<const N: usize>(
     let datas = src.map(|(data, _)| data);
     let [px, py, pz] = points;
     let covered = 1..cells[0] - 1;
-    for i in group_starts(covered.clone(), 16) {
-        let g = [&px[i..], &py[i..], &pz[i..]];
+    // Two groups at a time, their interpolations interleaved; an odd one
+    // alone. A group not written, grid by grid.
+    let mut starts = group_starts(covered.clone(), 16);
+    while let Some(i) = starts.next() {
+        let g = [&px[..], &py[..], &pz[..]];
         let group = outs.each_mut().map(|o| &mut **o);
         // SAFETY: AVX-512F and a grid that fits (`Lanes::widest`, caller).
-        if unsafe { simd512::sample16_grids(datas, cells, g, (group, at + i)) } {
-            continue;
-        }
-        for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
-            let out = &mut out[at + i..];
-            // SAFETY: as above.
-            let left = unsafe { simd512::sample16(data, (cells, wrap), g, out) };
-            for n in lanes_in(left) {
-                out[n] = Stencil::new(point(points, i + n), cells, wrap).apply(data);
+        let wrote = unsafe {
+            match starts.next() {
+                Some(i2) => {
+                    let [w, w2] = simd512::sample16_grids(datas, cells, (g, [i, i2]), (group, at));
+                    [(i, w), (i2, w2)]
+                }
+                None => {
+                    let [w] = simd512::sample16_grids(datas, cells, (g, [i]), (group, at));
+                    [(i, w), (i, true)]
+                }
+            }
+        };
+        for (i, _) in wrote.into_iter().filter(|&(_, w)| !w) {
+            let g = [&px[i..], &py[i..], &pz[i..]];
+            for (&(data, wrap), out) in src.iter().zip(outs.iter_mut()) {
+                let out = &mut out[at + i..];
+                // SAFETY: as above.
+                let left = unsafe { simd512::sample16(data, (cells, wrap), g, out) };
+                for n in lanes_in(left) {
+                    out[n] = Stencil::new(point(points, i + n), cells, wrap).apply(data);
+                }
             }
         }
     }

@@ -2,13 +2,14 @@
 //! kernels of [`super::simd`] in sixteen lanes, with the trilinear corners
 //! fetched by row windows instead of gathers where the lanes allow.
 //!
-//! - The grid sweeps: sixteen consecutive faces of one x-row ([`faces16`],
-//!   two such groups at a time, their interpolations interleaved) or
-//!   sixteen cell centres ([`cells16`]) traced back together (Euler or
+//! - The grid sweeps: sixteen consecutive faces of one x-row ([`faces16`])
+//!   or sixteen cell centres ([`cells16`]) traced back together (Euler or
 //!   RK2) and interpolated at their departure points ([`faces16`],
 //!   [`sample16`]; several densities at the same points through shared
-//!   corners, [`sample16_grids`]), stencils inside their lattice by
-//!   [`trilinear16`], others wrapped or clamped by [`stencil16`].
+//!   corners, [`sample16_grids`]); the faces and the densities two groups
+//!   at a time, their interpolations interleaved; stencils inside their
+//!   lattice by [`trilinear16`], others wrapped or clamped by
+//!   [`stencil16`].
 //! - Arbitrary points: [`points16`], one backward step of the gridless walk
 //!   and SELMA's map.
 //!
@@ -928,41 +929,76 @@ pub(super) unsafe fn sample16(
 }
 
 /// [`sample16`] for `N` grids of one layout (`datas`, each of `dims` cells
-/// and the same length) at the same sixteen points `g`, into
-/// `outs[n][at..at + 16]`, their corners found once ([`trilinear16`]) —
-/// the same operations per grid as [`sample16`]'s, so the same bits.
-/// Returns whether it wrote them: only when every lane's stencil lies
-/// inside the grid (the caller samples the grids one by one otherwise).
+/// and the same length) at `G` groups of sixteen points, group `n` at
+/// `points[a][starts[n]..]`, into `outs[m][at + starts[n]..][..16]`: each
+/// group's corners found once for all grids ([`Corners`]), and the groups
+/// whose stencils lie in one [`Window`] interpolated together, corner row
+/// by corner row, so that their chains overlap (as [`interpolate16_groups`]);
+/// the others by [`trilinear16`]. The same operations per grid as
+/// [`sample16`]'s, so the same bits. Returns per group whether it wrote
+/// it: only when every lane's stencil lies inside the grid (the caller
+/// samples the grids one by one otherwise).
 ///
 /// # Safety
 /// The CPU has AVX-512F; `dims` passes `simd::lattices` as a lattice.
 ///
 /// # Panics
 /// If the grids' lengths differ or are shorter than `dims`, or a slice of
-/// `g` (of `outs` past `at`) is shorter than sixteen.
+/// `points` (of `outs` past `at`) is shorter than a start plus sixteen.
 #[target_feature(enable = "avx512f")]
-pub(super) unsafe fn sample16_grids<const N: usize>(
+pub(super) unsafe fn sample16_grids<const N: usize, const G: usize>(
     datas: [&[f32]; N],
     dims: [usize; 3],
-    g: [&[f32]; 3],
-    (outs, at): ([&mut [f32]; N], usize),
-) -> bool {
+    (points, starts): ([&[f32]; 3], [usize; G]),
+    (mut outs, at): ([&mut [f32]; N], usize),
+) -> [bool; G] {
     let len = datas.first().map_or(0, |d| d.len());
     assert!(
         len >= dims.iter().product::<usize>() && datas.iter().all(|d| d.len() == len),
         "sample16_grids: data"
     );
-    let g = g.map(|x| load16(x[..16].try_into().expect("sixteen points")));
-    // SAFETY: every grid covers the lattice with one length (asserted),
-    // which fits (caller).
-    let (v, inside) = unsafe { trilinear16(datas, dims, g) };
-    if inside != 0xffff {
-        return false;
+    let mut g = [[_mm512_setzero_ps(); 3]; G];
+    let mut corners = [Corners::new(dims, g[0]); G];
+    let mut windows = [None; G];
+    for n in 0..G {
+        for a in 0..3 {
+            let at = starts[n];
+            g[n][a] = load16(points[a][at..at + 16].try_into().expect("sixteen points"));
+        }
+        corners[n] = Corners::new(dims, g[n]);
+        windows[n] = corners[n].one_window(len);
     }
-    for (out, v) in outs.into_iter().zip(v) {
-        out[at..at + 16].copy_from_slice(&lanes16(v));
+    let mut acc = [[_mm512_setzero_ps(); N]; G];
+    for c in 0..4 {
+        for n in 0..G {
+            if let Some(w) = &windows[n] {
+                let mut v = [[_mm512_setzero_ps(); 2]; N];
+                for (v, data) in v.iter_mut().zip(datas) {
+                    // SAFETY: `shifts[c] ≤ shifts[3]`, the window's
+                    // `last_shift`; every grid has its length.
+                    *v = unsafe { w.fetch(data, corners[n].shifts[c]) };
+                }
+                acc[n] = corners[n].add_row(acc[n], c, v);
+            }
+        }
     }
-    true
+    let mut wrote = [true; G];
+    for n in 0..G {
+        if windows[n].is_none() {
+            // SAFETY: every grid covers the lattice with one length
+            // (asserted), which fits (caller).
+            let (v, inside) = unsafe { trilinear16(datas, dims, g[n]) };
+            if inside != 0xffff {
+                wrote[n] = false;
+                continue;
+            }
+            acc[n] = v;
+        }
+        for (out, v) in outs.iter_mut().zip(acc[n]) {
+            out[at + starts[n]..][..16].copy_from_slice(&lanes16(v));
+        }
+    }
+    wrote
 }
 
 /// `simd::wrap8` in sixteen lanes (AVX-512).
