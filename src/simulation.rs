@@ -329,8 +329,10 @@ impl Simulation {
     /// holds nothing in the dry cells after the step
     /// ([`crate::boundary::OpenFaces::clear_dry`]): what a backtrace carried
     /// there is lost, and counted so by the retained mass. Each gridded
-    /// gas's [`MassBudget`] records what advection and clearing changed (two
-    /// sums over the grid per stage).
+    /// gas's [`MassBudget`] records what advection and clearing changed:
+    /// the totals before and after each (the advected total summed in the
+    /// injection's pass, [`crate::density::Gridded::step`], whose new total
+    /// is the next step's before).
     ///
     /// # Errors
     /// As [`Advector::advect`]; nothing is changed then.
@@ -341,11 +343,7 @@ impl Simulation {
             .is_some()
             .then(|| self.boundary.as_ref().map(|b| b.open_faces()))
             .flatten();
-        let before: Vec<Option<f64>> = self
-            .gases
-            .iter()
-            .map(|g| matches!(g.model, DensityModel::Gridded(_)).then(|| g.density().total()))
-            .collect();
+        let before: Vec<Option<f64>> = self.gases.iter().map(|g| g.model.gridded_total()).collect();
         let snapshot = self
             .gases
             .iter()
@@ -369,18 +367,16 @@ impl Simulation {
             dt: p.dt,
             backtrace: p.backtrace,
         };
-        for (gas, before) in self.gases.iter_mut().zip(before) {
-            if let (Some(before), Some((_, advected))) = (before, gas.model.advection_pair()) {
-                gas.budget.advection += advected.total() - before;
-            }
-        }
-        DensityModel::step_all(
+        let advected = DensityModel::step_all(
             self.gases.iter_mut().map(|g| (&mut g.model, &g.source)),
             &input,
         );
-        for gas in &mut self.gases {
-            if let (Some(faces), Some(rho)) = (faces, gas.model.gridded_mut()) {
-                let kept = rho.total();
+        for ((gas, before), advected) in self.gases.iter_mut().zip(before).zip(advected) {
+            if let (Some(before), Some(advected)) = (before, advected) {
+                gas.budget.advection += advected - before;
+            }
+            if let (Some(faces), Some(kept)) = (faces, gas.model.gridded_total()) {
+                let rho = gas.model.gridded_mut().expect("a gridded gas");
                 faces.clear_dry(rho.as_slice_mut());
                 gas.budget.cleared += rho.total() - kept;
             }

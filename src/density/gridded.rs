@@ -13,8 +13,6 @@
 
 use std::sync::Arc;
 
-use rayon::prelude::*;
-
 use super::Buffer;
 use crate::domain::Domain;
 use crate::field::Scalar;
@@ -25,6 +23,9 @@ use crate::grid::{ScalarGrid, Wrap};
 pub struct Gridded {
     density: ScalarGrid,
     scratch: ScalarGrid,
+    /// `density.total()` when [`Self::step`] found it (forgotten when the
+    /// density is handed out to edit).
+    total: Option<f64>,
 }
 
 impl Gridded {
@@ -37,6 +38,7 @@ impl Gridded {
         Self {
             density,
             scratch: ScalarGrid::zeros(domain),
+            total: None,
         }
     }
 
@@ -54,14 +56,20 @@ impl Gridded {
 
     /// Eq 6.4: `ρ ← ρ(x_d) + S Δt`, taking the advected density from the
     /// target of [`Self::advection_pair`] and adding the source `S` at the
-    /// cell centres.
-    pub fn step(&mut self, source: &ScalarGrid, dt: f32) {
+    /// cell centres. Returns the advected density's total `Σ ρ(x_d) Δx³`
+    /// ([`ScalarGrid::total`]), and keeps the new density's
+    /// ([`Self::total`]): both found in the injection's pass.
+    pub fn step(&mut self, source: &ScalarGrid, dt: f32) -> f64 {
         std::mem::swap(&mut self.density, &mut self.scratch);
-        self.density
-            .as_slice_mut()
-            .par_iter_mut()
-            .zip(source.as_slice().par_iter())
-            .for_each(|(rho, s)| *rho += s * dt);
+        let (advected, total) = self.density.add_scaled_with_totals(source, dt);
+        self.total = Some(total);
+        advected
+    }
+
+    /// The density's total `Σ ρ Δx³` ([`ScalarGrid::total`]; kept from the
+    /// last step when the density has not been edited since).
+    pub fn total(&self) -> f64 {
+        self.total.unwrap_or_else(|| self.density.total())
     }
 
     /// The density at the cell centres.
@@ -71,6 +79,7 @@ impl Gridded {
 
     /// The density at the cell centres, to edit (ghost values at walls).
     pub fn density_mut(&mut self) -> &mut ScalarGrid {
+        self.total = None;
         &mut self.density
     }
 
@@ -97,5 +106,27 @@ impl Gridded {
     pub(super) fn buffers(&self, out: &mut Vec<Buffer>) {
         out.push(Buffer::of_scalar(&self.density));
         out.push(Buffer::of_scalar(&self.scratch));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::ops;
+
+    #[test]
+    fn the_kept_total_is_the_grids_until_the_density_is_edited() {
+        let d = Domain::cube(12, 1.0).unwrap();
+        let mut g = Gridded::new(d, Some(&ops::constant(2.0)));
+        let source = ScalarGrid::from_field(d, &*ops::constant(0.5));
+        // The advection target holds the advected density (here: ones).
+        let (_, target) = g.advection_pair();
+        target.as_slice_mut().fill(1.0);
+        let advected = g.step(&source, 0.1);
+        let ones = ScalarGrid::from_field(d, &*ops::constant(1.0));
+        assert_eq!(advected.to_bits(), ones.total().to_bits());
+        assert_eq!(g.total().to_bits(), g.density().total().to_bits());
+        g.density_mut().as_slice_mut()[7] = 100.0;
+        assert_eq!(g.total().to_bits(), g.density().total().to_bits());
     }
 }

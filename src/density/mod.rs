@@ -330,6 +330,15 @@ impl DensityModel {
         }
     }
 
+    /// The gridded density's total `Σ ρ Δx³` ([`Gridded::total`]; `None`
+    /// for gridless and SELMA).
+    pub fn gridded_total(&self) -> Option<f64> {
+        match self {
+            DensityModel::Gridded(g) => Some(g.total()),
+            _ => None,
+        }
+    }
+
     /// The gridded density, to edit (`None` for gridless and SELMA).
     pub fn gridded_mut(&mut self) -> Option<&mut ScalarGrid> {
         match self {
@@ -351,32 +360,43 @@ impl DensityModel {
     /// A SELMA model steps its own map here; the gases of a simulation
     /// share one map through [`Self::step_all`] instead.
     ///
+    /// Returns, for the gridded model, the advected density's total before
+    /// the injection ([`Gridded::step`]: its mass budget's advection term
+    /// is that less [`Self::gridded_total`] before the advection).
+    ///
     /// # Panics
     /// If a gridless model gets no snapshot, a SELMA model shares another
     /// gas's map, or grids are on other domains.
-    pub fn step(&mut self, input: &StepInput<'_>, source: &ScalarGrid) {
+    pub fn step(&mut self, input: &StepInput<'_>, source: &ScalarGrid) -> Option<f64> {
         match self {
-            DensityModel::Gridded(g) => g.step(source, input.dt),
+            DensityModel::Gridded(g) => return Some(g.step(source, input.dt)),
             DensityModel::Gridless(g) => g.step(input),
             DensityModel::Selma(s) => s.step(input),
         }
+        None
     }
 
     /// [`Self::step`] for every gas, in order, each with its grid source;
     /// the SELMA gases step together ([`selma::step_group`]), sharing one
-    /// map where their maps agree.
+    /// map where their maps agree. Returns what [`Self::step`] returns,
+    /// per gas.
     pub fn step_all<'a>(
         gases: impl IntoIterator<Item = (&'a mut DensityModel, &'a ScalarGrid)>,
         input: &StepInput<'_>,
-    ) {
+    ) -> Vec<Option<f64>> {
         let mut selma = Vec::new();
+        let mut advected = Vec::new();
         for (model, source) in gases {
-            match model {
-                DensityModel::Selma(s) => selma.push(&mut **s),
+            advected.push(match model {
+                DensityModel::Selma(s) => {
+                    selma.push(&mut **s);
+                    None
+                }
                 other => other.step(input, source),
-            }
+            });
         }
         step_group(&mut selma, input);
+        advected
     }
 
     /// Evaluate the density at the velocity grid's cell centres into
