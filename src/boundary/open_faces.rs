@@ -213,14 +213,19 @@ impl OpenFaces {
     }
 
     /// Mass `Σ ρ Δx³` in the dry cells (inside obstacles), at any depth.
+    ///
+    /// Fixed chunks summed in parallel, their sums added in order: the
+    /// same bits at any thread count (a parallel `sum` adds in the order
+    /// its work was split, which moved the last bits between runs).
     pub fn mass_inside(&self, rho: &[f32]) -> f64 {
-        let sum: f64 = rho
-            .par_iter()
-            .zip(self.wet.par_iter())
-            .filter(|(_, &w)| !w)
-            .map(|(&r, _)| r as f64)
-            .sum();
-        sum * self.domain.cell_volume() as f64
+        let sums: Vec<f64> = (rho.par_chunks(1 << 14))
+            .zip(self.wet.par_chunks(1 << 14))
+            .map(|(rho, wet)| {
+                let dry = rho.iter().zip(wet).filter(|(_, &w)| !w);
+                dry.map(|(&r, _)| r as f64).sum::<f64>()
+            })
+            .collect();
+        sums.iter().sum::<f64>() * self.domain.cell_volume() as f64
     }
 }
 

@@ -777,14 +777,15 @@ impl FaceGrid {
             .fold(0.0, f32::max)
     }
 
-    /// `Σ_a Σ_faces u_a²`, in f64.
+    /// `Σ_a Σ_faces u_a²`, in f64: fixed chunks summed in parallel, their
+    /// sums added in order, so the same bits at any thread count.
     fn sum_squares(&self) -> f64 {
         (0..3)
             .map(|a| {
-                self.slice(a)
-                    .par_chunks(4096)
+                let sums: Vec<f64> = (self.slice(a).par_chunks(4096))
                     .map(|c| c.iter().map(|&v| (v as f64) * (v as f64)).sum::<f64>())
-                    .sum::<f64>()
+                    .collect();
+                sums.iter().sum::<f64>()
             })
             .sum()
     }
