@@ -891,7 +891,6 @@ unsafe fn face_values16<const A: usize, const N: usize, const EULER: bool>(
     let mut g = c;
     let mut traced = [0xffff; N];
     for n in 0..N {
-        // SAFETY: as this function's.
         (g[n], traced[n]) = match EULER {
             true => (back16(c[n], u0[n], dt_cells), 0xffff),
             // SAFETY: as this function's.
