@@ -237,6 +237,14 @@ mod tests {
     use super::*;
     use crate::field::ops;
 
+    /// A smooth positive field whose samples use every bit of an f32.
+    struct Bumpy;
+    impl ScalarField for Bumpy {
+        fn eval(&self, p: Vec3) -> f32 {
+            1.0 + (1.3 * p.x).sin() * (0.7 * p.y).cos() + 0.1 * p.z
+        }
+    }
+
     #[test]
     fn cachewrite_then_cacheread_reproduces_linear_fields() {
         let d = Domain::new(Vec3::ZERO, 0.5, [6, 5, 4]).unwrap();
@@ -263,12 +271,6 @@ mod tests {
 
     #[test]
     fn total_is_the_same_at_any_thread_count() {
-        struct Bumpy;
-        impl ScalarField for Bumpy {
-            fn eval(&self, p: Vec3) -> f32 {
-                1.0 + (1.3 * p.x).sin() * (0.7 * p.y).cos() + 0.1 * p.z
-            }
-        }
         // 64³ cells: sixteen chunks, split differently by one and three threads.
         let d = Domain::cube(64, 6.0).unwrap();
         let g = ScalarGrid::from_field(d, &Bumpy);
@@ -291,12 +293,6 @@ mod tests {
     }
     #[test]
     fn add_scaled_with_totals_is_the_update_and_both_totals_to_the_bit() {
-        struct Bumpy;
-        impl ScalarField for Bumpy {
-            fn eval(&self, p: Vec3) -> f32 {
-                1.0 + (1.3 * p.x).sin() * (0.7 * p.y).cos() + 0.1 * p.z
-            }
-        }
         // 40³ cells: four chunks and a short last one.
         let d = Domain::cube(40, 6.0).unwrap();
         let g = ScalarGrid::from_field(d, &Bumpy);
