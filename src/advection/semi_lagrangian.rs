@@ -22,6 +22,7 @@
 //!
 //! Parallel over z-slabs with rayon; no per-cell allocation.
 
+#[cfg(target_arch = "x86_64")]
 use std::ops::Range;
 
 use glam::Vec3;
@@ -298,7 +299,7 @@ fn face_sweep<const A: usize>(
     #[cfg(target_arch = "x86_64")]
     let sixteen = simd.filter(|_| cells[0] >= 18 && simd512::has_avx512());
     #[cfg(not(target_arch = "x86_64"))]
-    let _ = wrap;
+    let _ = (cells, wrap);
     let scalar = |f: [usize; 3]| {
         let (c, u0) = face_start::<A>(vel, f);
         let g = departure(vel, c, u0, dt_cells, backtrace);
@@ -611,6 +612,7 @@ impl<'a> RowTrace<'a> {
         // the lattices (`i + 8 < m_x` of u, `j + 1 < m_y` of v, `k + 1 <
         // m_z` of w), where the RK2 midpoints' stencils stay inside; the
         // rest one by one.
+        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
         let mut covered = 0..0;
         #[cfg(target_arch = "x86_64")]
         if let Some(lat) = self
@@ -652,11 +654,15 @@ fn sample_row(
     out: &mut [f32],
 ) {
     let scalar = |i| Stencil::new(point(points, i), cells, wrap).apply(data);
-    let [px, py, pz] = points;
     // Cells 1 … n_x − 2 in groups of sixteen or eight (the last
     // overlapping its predecessor), where the stencils mostly lie inside
     // the grid (the edge cells' rarely do); the rest one by one.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
     let mut covered = 0..0;
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = lanes;
+    #[cfg(target_arch = "x86_64")]
+    let [px, py, pz] = points;
     #[cfg(target_arch = "x86_64")]
     if lanes == Lanes::Sixteen && cells[0] >= 18 {
         covered = 1..cells[0] - 1;
@@ -873,6 +879,7 @@ pub(crate) fn sample_points(
     );
     let scalar =
         |i: usize| Stencil::new(Vec3::new(g[0][i], g[1][i], g[2][i]), cells, wrap).apply(data);
+    #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
     let mut covered = 0..0;
     #[cfg(target_arch = "x86_64")]
     {

@@ -114,6 +114,7 @@ pub struct FaceSampler<'a> {
 impl<'a> FaceSampler<'a> {
     /// The component slices `[u, v, w]` (flat `[z][y][x]`) and their lattice
     /// sizes `[mx, my, mz]`, for kernels that index the lattices themselves.
+    #[cfg(target_arch = "x86_64")]
     pub(crate) fn lattices(&self) -> ([&'a [f32]; 3], [[usize; 3]; 3]) {
         (self.data, self.dims)
     }
@@ -570,7 +571,9 @@ impl FaceGrid {
             "sample_points: slice lengths differ"
         );
         let s = self.sampler();
+        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
         let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
         if let Some(lat) = crate::advection::simd::lattices(s) {
             for (p, o) in points.chunks_exact(8).zip(out.chunks_exact_mut(8)) {
                 let p: [Vec3; 8] = std::array::from_fn(|l| g(p[l]));
