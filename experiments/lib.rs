@@ -22,6 +22,7 @@ pub mod script;
 
 // Figures and tables.
 pub mod plot;
+pub mod panels;
 pub mod table;
 pub mod growth;
 

@@ -34,10 +34,10 @@ use smokelab::io::write_atomic;
 /// The embedded plot font.
 static FONT: &[u8] = include_bytes!("assets/DejaVuSans.ttf");
 /// Family name the font is registered under.
-const FAMILY: &str = "sans-serif";
+pub(crate) const FAMILY: &str = "sans-serif";
 
 /// Register the embedded font with plotters (once per process).
-fn ensure_font() {
+pub(crate) fn ensure_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         if register_font(FAMILY, FontStyle::Normal, FONT).is_err() {

@@ -1,0 +1,252 @@
+//! Multi-panel figures with their labels in the pixels: a grid of images
+//! with a name at the start of each row (the mode, the case) and a heading
+//! over each column (the frame, the time with its unit), and an optional
+//! title. A figure that is read without its caption still says what each
+//! panel is.
+//!
+//! Text is drawn with the plots' embedded DejaVu Sans ([`crate::plot`]),
+//! through plotters' bitmap backend over the composed image's buffer.
+
+use anyhow::{anyhow, ensure, Result};
+use image::{Rgb, RgbImage};
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+/// Background of the margins and gaps.
+const BACKGROUND: Rgb<u8> = Rgb([28, 28, 28]);
+/// Colour of the labels.
+const INK: RGBColor = RGBColor(235, 235, 235);
+
+/// How a [`grid`] is labelled: one name per row, one heading per column
+/// (either may be empty for none), and a title over the whole (empty for
+/// none).
+#[derive(Clone, Debug, Default)]
+pub struct Labels<'a> {
+    pub title: &'a str,
+    pub rows: &'a [String],
+    pub columns: &'a [String],
+}
+
+/// The text height in pixels for panels `panel_height` tall: legible at
+/// the figure's size, never smaller than 14 px nor larger than 28 px.
+fn text_size(panel_height: u32) -> u32 {
+    (panel_height / 12).clamp(14, 28)
+}
+
+/// The panels `rows[r][c]` in a grid, `gap` pixels apart, with `labels`
+/// drawn in margins left of the rows and above the columns.
+///
+/// Rows may differ in length (a missing panel is left blank); each cell is
+/// as large as the largest panel in its row and column.
+///
+/// # Errors
+/// If there are no panels, or a label list is neither empty nor as long as
+/// the rows / the longest row.
+pub fn grid(rows: &[Vec<RgbImage>], gap: u32, labels: &Labels) -> Result<RgbImage> {
+    let n_cols = rows.iter().map(Vec::len).max().unwrap_or(0);
+    ensure!(n_cols > 0, "panels::grid: no panels");
+    ensure!(
+        labels.rows.is_empty() || labels.rows.len() == rows.len(),
+        "panels::grid: {} row labels for {} rows",
+        labels.rows.len(),
+        rows.len()
+    );
+    ensure!(
+        labels.columns.is_empty() || labels.columns.len() == n_cols,
+        "panels::grid: {} column labels for {} columns",
+        labels.columns.len(),
+        n_cols
+    );
+    let widths: Vec<u32> = (0..n_cols)
+        .map(|c| {
+            rows.iter()
+                .filter_map(|r| r.get(c))
+                .map(|i| i.width())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let heights: Vec<u32> = rows
+        .iter()
+        .map(|r| r.iter().map(|i| i.height()).max().unwrap_or(0))
+        .collect();
+    let size = text_size(heights.iter().copied().max().unwrap_or(0));
+    let line = size + size / 2;
+    // Margins: the widest row name (estimated at 0.6 em per character), one
+    // line for the column headings, one for the title.
+    let left = match labels.rows.iter().map(|l| l.chars().count()).max() {
+        Some(n) if n > 0 => (n as u32 * size * 6 / 10) + size,
+        _ => 0,
+    };
+    let top =
+        u32::from(!labels.columns.is_empty()) * line + u32::from(!labels.title.is_empty()) * line;
+    let width = left + widths.iter().sum::<u32>() + gap * (n_cols as u32 - 1);
+    let height = top + heights.iter().sum::<u32>() + gap * (rows.len() as u32 - 1);
+    let mut out = RgbImage::from_pixel(width, height, BACKGROUND);
+    let mut y = top;
+    for (row, &h) in rows.iter().zip(&heights) {
+        let mut x = left;
+        for (img, &w) in row.iter().zip(&widths) {
+            image::imageops::replace(&mut out, img, i64::from(x), i64::from(y));
+            x += w + gap;
+        }
+        y += h + gap;
+    }
+    draw_labels(
+        &mut out,
+        labels,
+        (left, top, line, size),
+        (&widths, &heights),
+        gap,
+    )?;
+    Ok(out)
+}
+
+/// One row of panels with a heading over each, as [`grid`].
+///
+/// # Errors
+/// As [`grid`].
+pub fn row(images: &[RgbImage], gap: u32, title: &str, headings: &[String]) -> Result<RgbImage> {
+    grid(
+        &[images.to_vec()],
+        gap,
+        &Labels {
+            title,
+            rows: &[],
+            columns: headings,
+        },
+    )
+}
+
+/// The labels of [`grid`] written into `out`, whose panel area starts at
+/// `(left, top)`.
+fn draw_labels(
+    out: &mut RgbImage,
+    labels: &Labels,
+    (left, top, line, size): (u32, u32, u32, u32),
+    (widths, heights): (&[u32], &[u32]),
+    gap: u32,
+) -> Result<()> {
+    crate::plot::ensure_font();
+    let (w, h) = out.dimensions();
+    let root = BitMapBackend::with_buffer(out.as_mut(), (w, h)).into_drawing_area();
+    let font = |h: HPos, v: VPos| {
+        (crate::plot::FAMILY, size as f64)
+            .into_font()
+            .color(&INK)
+            .pos(Pos::new(h, v))
+    };
+    let err = |e| anyhow!("panels: drawing a label: {e:?}");
+    if !labels.title.is_empty() {
+        let style = font(HPos::Center, VPos::Center);
+        root.draw_text(labels.title, &style, ((w / 2) as i32, (line / 2) as i32))
+            .map_err(err)?;
+    }
+    let mut x = left;
+    for (text, &cw) in labels.columns.iter().zip(widths) {
+        let style = font(HPos::Center, VPos::Center);
+        let y = top - line / 2;
+        root.draw_text(text, &style, ((x + cw / 2) as i32, y as i32))
+            .map_err(err)?;
+        x += cw + gap;
+    }
+    let mut y = top;
+    for (text, &rh) in labels.rows.iter().zip(heights) {
+        let style = font(HPos::Right, VPos::Center);
+        root.draw_text(
+            text,
+            &style,
+            ((left - size / 2) as i32, (y + rh / 2) as i32),
+        )
+        .map_err(err)?;
+        y += rh + gap;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn panel(w: u32, h: u32, v: u8) -> RgbImage {
+        RgbImage::from_pixel(w, h, Rgb([v, v, v]))
+    }
+
+    /// Count of pixels in `rect` that differ from the background.
+    fn inked(img: &RgbImage, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> usize {
+        (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .filter(|&(x, y)| *img.get_pixel(x, y) != BACKGROUND)
+            .count()
+    }
+
+    #[test]
+    fn labels_land_in_the_margins_and_panels_stay_whole() {
+        let rows = vec![
+            vec![panel(100, 80, 0), panel(100, 80, 255)],
+            vec![panel(100, 80, 128)],
+        ];
+        let names = ["gridded".to_string(), "gridless".to_string()];
+        let heads = ["t = 1 s".to_string(), "t = 2 s".to_string()];
+        let labels = Labels {
+            title: "title",
+            rows: &names,
+            columns: &heads,
+        };
+        let img = grid(&rows, 4, &labels).unwrap();
+        let size = text_size(80);
+        let line = size + size / 2;
+        let left = 8 * size * 6 / 10 + size;
+        assert_eq!(img.width(), left + 204);
+        assert_eq!(img.height(), 2 * line + 164);
+        // Each label put ink in its own margin cell.
+        assert!(inked(&img, (0, 0, img.width(), line)) > 20, "title");
+        assert!(
+            inked(&img, (left, line, left + 100, 2 * line)) > 20,
+            "first column heading"
+        );
+        assert!(
+            inked(&img, (left + 104, line, left + 204, 2 * line)) > 20,
+            "second heading"
+        );
+        assert!(
+            inked(&img, (0, 2 * line, left, 2 * line + 80)) > 20,
+            "first row name"
+        );
+        assert!(
+            inked(&img, (0, 2 * line + 84, left, 2 * line + 164)) > 20,
+            "second row name"
+        );
+        // The panels are copied untouched, the missing one left blank.
+        assert_eq!(*img.get_pixel(left + 50, 2 * line + 40), Rgb([0, 0, 0]));
+        assert_eq!(
+            *img.get_pixel(left + 150, 2 * line + 40),
+            Rgb([255, 255, 255])
+        );
+        assert_eq!(
+            *img.get_pixel(left + 50, 2 * line + 120),
+            Rgb([128, 128, 128])
+        );
+        assert_eq!(
+            inked(
+                &img,
+                (left + 104, 2 * line + 84, left + 204, 2 * line + 164)
+            ),
+            0
+        );
+    }
+
+    #[test]
+    fn label_counts_must_match() {
+        let rows = vec![vec![panel(10, 10, 0)]];
+        let two = ["a".to_string(), "b".to_string()];
+        let bad = Labels {
+            title: "",
+            rows: &two,
+            columns: &[],
+        };
+        assert!(grid(&rows, 0, &bad).is_err());
+        assert!(grid(&[], 0, &Labels::default()).is_err());
+    }
+}
