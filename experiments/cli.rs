@@ -220,7 +220,8 @@ pub struct SceneFlags {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub source_edge: Option<f32>,
     /// Horizontal offset of the sources (hot-cold, world units): hot moves
-    /// by +d and cold by −d along x, so the gases pass each other (0: head-on).
+    /// by +d and cold by −d along x, so the gases collide and pass each other
+    /// (default 0.5; 0: head-on, mirror-symmetric, the gases spread into a disc).
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub offset: Option<f32>,

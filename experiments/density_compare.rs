@@ -24,6 +24,7 @@ use anyhow::{Context as _, Result};
 use image::RgbImage;
 use serde::Serialize;
 
+use crate::panels::{self, Labels};
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
 use crate::registry::Context;
 use crate::run::{self, RunOptions, SaveFrames};
@@ -221,11 +222,37 @@ pub(crate) fn run_mode(
     })
 }
 
-/// Rows of images stacked, each row side by side, with `gap`-pixel dark
-/// separators.
+/// Rows of images (plots, each titled in its own pixels) stacked, each row
+/// side by side, with `gap`-pixel dark separators.
 pub(crate) fn grid(rows: &[Vec<RgbImage>], gap: u32) -> RgbImage {
     let rows: Vec<RgbImage> = rows.iter().map(|r| preview::side_by_side(r, gap)).collect();
     preview::stacked(&rows, gap)
+}
+
+/// The pictures `pick` of each result at the captured frames, one row per
+/// result named by its label, one column per frame headed by its time
+/// (`capture`, steps of `dt`), under `title`.
+pub(crate) fn frames_grid(
+    title: &str,
+    results: &[&ModeResult],
+    pick: fn(&Captured) -> RgbImage,
+    (capture, dt): (&[usize], f32),
+) -> Result<RgbImage> {
+    let rows: Vec<Vec<RgbImage>> = results
+        .iter()
+        .map(|r| r.frames.iter().map(pick).collect())
+        .collect();
+    let names: Vec<String> = results.iter().map(|r| r.label.clone()).collect();
+    let columns: Vec<String> = capture
+        .iter()
+        .map(|&f| panels::frame_heading(f, dt))
+        .collect();
+    let labels = Labels {
+        title,
+        rows: &names,
+        columns: &columns,
+    };
+    panels::grid(&rows, 4, &labels)
 }
 
 /// The colour of a mode in every plot.

@@ -102,20 +102,26 @@ fn run(ctx: &Context) -> Result<()> {
         .map(|m| dc::run_mode(ctx, m, &capture, look))
         .collect::<Result<Vec<_>>>()?;
     let gridless = &results[0];
-    io::write_png(
-        &ctx.out.join("sequence.png"),
-        &dc::grid(
-            &[gridless.frames.iter().map(|f| f.slice.clone()).collect()],
-            4,
+    let times = (capture.as_slice(), config.solver.dt);
+    let res = config.solver.res;
+    for (file, pick, what) in [
+        (
+            "sequence.png",
+            (|f: &dc::Captured| f.slice.clone()) as fn(&dc::Captured) -> _,
+            "mid-plane slices",
         ),
-    )?;
-    io::write_png(
-        &ctx.out.join("sequence_render.png"),
-        &dc::grid(
-            &[gridless.frames.iter().map(|f| f.render.clone()).collect()],
-            4,
+        (
+            "sequence_render.png",
+            |f: &dc::Captured| f.render.clone(),
+            "volume renders",
         ),
-    )?;
+    ] {
+        let title = format!("06-3 hot/cold, gridless density on a {res}³ velocity grid: {what}");
+        io::write_png(
+            &ctx.out.join(file),
+            &dc::frames_grid(&title, &[gridless], pick, times)?,
+        )?;
+    }
     io::write_png(
         &ctx.out.join("frame.png"),
         &dc::slice(&gridless.sim, 3 * look.slice),

@@ -6,28 +6,30 @@
 //! with `--full`, SELMA^fine (map grid twice as fine as the velocity). The
 //! notes' claims under test: gridless keeps the hot/cold mirror symmetry
 //! better, shows finer structure and keeps more density; SELMA should get
-//! most of that at constant memory and cost per step. A fourth run,
-//! `gridless-smooth`, is gridless with injection spheres whose edge is a
-//! smoothstep 0.4 wide instead of the notes' solid mask: the control that
-//! shows why the solid mask breaks gridless symmetry (a path grazing the
-//! sphere turns round-off into a whole `S Δt`).
+//! most of that at constant memory and cost per step. With `--full`,
+//! `gridless-smooth-head-on` is gridless with injection spheres whose edge
+//! is a smoothstep 0.4 wide instead of the notes' solid mask: the control
+//! that shows why the solid mask breaks gridless symmetry (a path grazing
+//! the sphere turns round-off into a whole `S Δt`).
 //!
-//! Two more rows, `gridded-offset` and `selma-offset`, run with the
-//! scenario's `offset = 0.5` (hot source 0.5 to +x, cold 0.5 to −x), so the
-//! gases pass each other as in the notes' figs 6.1–6.5 instead of meeting
-//! head-on. Their `mirror_error` measures the offset (the problem keeps the
-//! half turn, not the mirror; experiment S-1 measures that symmetry). A
-//! gridless offset row would add the cost of another gridless run (about
-//! 50 s of the 150); `--full` adds it.
+//! The first three rows run the scenario's default, sources offset by ±0.5
+//! along x, so that the gases collide and pass each other as in the notes'
+//! figures; three more, `gridded-head-on`, `gridless-head-on` and
+//! `selma-head-on`, run the head-on variant (`offset = 0`), where the
+//! problem is exactly mirror-symmetric and `mirror_error` measures how each
+//! mode keeps that symmetry (in the offset rows it measures the offset;
+//! experiment S-1 measures the half turn those keep). `--full` adds the
+//! symmetry control `gridless-smooth-head-on` and SELMA^fine.
 //!
 //! Run: `smokelab experiment 06-5` (40³, 100 steps; about 3 minutes on 2
 //! free cores; `--full` is 50³ with 150 steps plus SELMA^fine, about 15
 //! minutes; `--smoke` is 16³ for tests).
 //!
-//! Writes `results/06-5/`: `side_by_side.png` (one row per run — gridded,
-//! gridless, SELMA, gridless-smooth, gridded-offset, selma-offset[,
-//! gridless-offset, SELMA^fine] — mid-plane slices of the density fields at
-//! four frames), `side_by_side_render.png` (the same, ray-marched),
+//! Writes `results/06-5/`: `side_by_side.png` (one row per run, named in
+//! the image — gridded, gridless, SELMA, then the three head-on[, then
+//! gridless-smooth-head-on, SELMA^fine] — mid-plane slices of the density
+//! fields at four frames, each column headed by its frame and time),
+//! `side_by_side_render.png` (the same, ray-marched),
 //! `final.png` (the last frame of every mode, larger, left to right in the
 //! same order), `metrics_*.png/.svg` and `metrics.png`, `summary.csv`,
 //! `manifest.json`, and one folder per mode with its `metrics.csv`.
@@ -37,17 +39,15 @@ use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
 
 use crate::density_compare::{self as dc, Look, ModeRun};
+use crate::panels;
 use crate::registry::{Context, Experiment, Size};
 use smokelab::density::DensityMode;
-use smokelab::io::{self, manifest::Manifest, preview};
+use smokelab::io::{self, manifest::Manifest};
 use smokelab::scenario::hot_cold::HotColdConfig;
 
 /// Edge width of the smooth-source control run (world units; the spheres
 /// have radius 1).
 const SMOOTH_EDGE: f32 = 0.4;
-
-/// Horizontal source offset of the offset rows (world units).
-const OFFSET: f32 = 0.5;
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -108,27 +108,28 @@ fn run(ctx: &Context) -> Result<()> {
         ),
     };
     let capture: Vec<usize> = (1..=4).map(|i| i * config.solver.frames / 4).collect();
+    let head_on = HotColdConfig {
+        offset: 0.0,
+        ..config.clone()
+    };
+    let named = |m: ModeRun, suffix: &str| ModeRun {
+        label: format!("{}{suffix}", m.label),
+        config: m.config,
+    };
     let mut modes: Vec<ModeRun> = DensityMode::ALL
         .iter()
         .map(|&m| ModeRun::new(&config, m))
+        .chain(
+            DensityMode::ALL
+                .iter()
+                .map(|&m| named(ModeRun::new(&head_on, m), "-head-on")),
+        )
         .collect();
-    modes.push(ModeRun::gridless_smooth(&config, SMOOTH_EDGE));
-    let offset = HotColdConfig {
-        offset: OFFSET,
-        ..config.clone()
-    };
-    let mut offset_modes = vec![DensityMode::Gridded, DensityMode::Selma];
     if ctx.size == Size::Full {
-        offset_modes.insert(1, DensityMode::Gridless);
-    }
-    for mode in offset_modes {
-        let m = ModeRun::new(&offset, mode);
-        modes.push(ModeRun {
-            label: format!("{}-offset", m.label),
-            config: m.config,
-        });
-    }
-    if ctx.size == Size::Full {
+        modes.push(named(
+            ModeRun::gridless_smooth(&head_on, SMOOTH_EDGE),
+            "-head-on",
+        ));
         modes.push(ModeRun::selma_fine(&config, 2));
     }
     for m in &modes {
@@ -138,27 +139,41 @@ fn run(ctx: &Context) -> Result<()> {
         .iter()
         .map(|m| dc::run_mode(ctx, m, &capture, look))
         .collect::<Result<Vec<_>>>()?;
-    let rows = |pick: fn(&dc::Captured) -> image::RgbImage| -> Vec<Vec<image::RgbImage>> {
-        results
-            .iter()
-            .map(|r| r.frames.iter().map(pick).collect())
-            .collect()
-    };
-    io::write_png(
-        &ctx.out.join("side_by_side.png"),
-        &dc::grid(&rows(|f| f.slice.clone()), 4),
-    )?;
-    io::write_png(
-        &ctx.out.join("side_by_side_render.png"),
-        &dc::grid(&rows(|f| f.render.clone()), 4),
-    )?;
+    let all: Vec<&dc::ModeResult> = results.iter().collect();
+    let times = (capture.as_slice(), config.solver.dt);
+    let res = config.solver.res;
+    for (file, pick, what) in [
+        (
+            "side_by_side.png",
+            (|f: &dc::Captured| f.slice.clone()) as fn(&dc::Captured) -> _,
+            "mid-plane slices",
+        ),
+        (
+            "side_by_side_render.png",
+            |f: &dc::Captured| f.render.clone(),
+            "volume renders",
+        ),
+    ] {
+        let title = format!("06-5 hot/cold by density mode, {res}³ velocity grid: {what}");
+        io::write_png(
+            &ctx.out.join(file),
+            &dc::frames_grid(&title, &all, pick, times)?,
+        )?;
+    }
     let finals: Vec<image::RgbImage> = results
         .iter()
         .map(|r| dc::slice(&r.sim, 2 * look.slice))
         .collect();
+    let names: Vec<String> = results.iter().map(|r| r.label.clone()).collect();
+    let last = panels::frame_heading(config.solver.frames, config.solver.dt);
     io::write_png(
         &ctx.out.join("final.png"),
-        &preview::side_by_side(&finals, 6),
+        &panels::row(
+            &finals,
+            6,
+            &format!("06-5 the last frame by density mode ({last})"),
+            &names,
+        )?,
     )?;
     let runs: Vec<(String, std::path::PathBuf)> = results
         .iter()

@@ -49,6 +49,7 @@ use glam::Vec3;
 use image::RgbImage;
 
 use crate::model_render::render_densities;
+use crate::panels::{self, Labels};
 use crate::plot::{LegendPosition, Plot, Series};
 use crate::registry::{Context, Experiment, Size};
 use crate::run::{self, RunOptions, SaveFrames};
@@ -222,11 +223,26 @@ fn run(ctx: &Context) -> Result<()> {
         Ok(w.write_all(data.as_bytes())?)
     })?;
     plot.write(&ctx.out.join("retained"))?;
-    io::write_png(&ctx.out.join("fig_6_6.png"), &preview::stacked(&rows, 6))?;
-    io::write_png(
-        &ctx.out.join("fig_6_6_render.png"),
-        &preview::stacked(&render_rows, 6),
-    )
+    let names: Vec<String> = CASES.iter().map(|c| c.name.to_string()).collect();
+    let dt = base.solver.dt;
+    let columns: Vec<String> = saved
+        .iter()
+        .map(|&f| panels::frame_heading(f, dt))
+        .collect();
+    for (file, rows, what) in [
+        ("fig_6_6.png", rows, "mid-plane slices"),
+        ("fig_6_6_render.png", render_rows, "volume renders"),
+    ] {
+        let title =
+            format!("06-6 buoyant gas (green) around a slab (red) in a closed box, {res}³: {what}");
+        let labels = Labels {
+            title: &title,
+            rows: &names,
+            columns: &columns,
+        };
+        io::write_png(&ctx.out.join(file), &panels::grid(&rows, 6, &labels)?)?;
+    }
+    Ok(())
 }
 
 /// The saved frames of one case as green gas, blue walls and a red slab:
@@ -236,7 +252,7 @@ fn figure_row(
     config: &SlabBoxConfig,
     dir: &Path,
     frames: &[usize],
-) -> Result<(RgbImage, RgbImage)> {
+) -> Result<(Vec<RgbImage>, Vec<RgbImage>)> {
     let domain = config.solver.domain()?;
     let solid = |o: Obstacle, value: f32| {
         let mut g = ScalarGrid::from_field(domain, &AsField(o));
@@ -288,10 +304,7 @@ fn figure_row(
             4.0,
         )?);
     }
-    Ok((
-        preview::side_by_side(&slices, 4),
-        preview::side_by_side(&renders, 4),
-    ))
+    Ok((slices, renders))
 }
 
 #[cfg(test)]

@@ -27,10 +27,19 @@ pub struct Labels<'a> {
     pub columns: &'a [String],
 }
 
-/// The text height in pixels for panels `panel_height` tall: legible at
-/// the figure's size, never smaller than 14 px nor larger than 28 px.
-fn text_size(panel_height: u32) -> u32 {
-    (panel_height / 12).clamp(14, 28)
+/// The heading of a column showing frame `frame` of a run stepped by `dt`:
+/// `frame 50, t = 2.5 s` (the time to three decimals, trailing zeros cut).
+pub fn frame_heading(frame: usize, dt: f32) -> String {
+    let t = format!("{:.3}", f64::from(dt) * frame as f64);
+    let t = t.trim_end_matches('0').trim_end_matches('.');
+    format!("frame {frame}, t = {t} s")
+}
+
+/// The text height in pixels for panels of `panel_side` (the smaller of
+/// their width and height): legible at the figure's size, never smaller
+/// than 11 px nor larger than 28 px.
+fn text_size(panel_side: u32) -> u32 {
+    (panel_side / 12).clamp(11, 28)
 }
 
 /// The panels `rows[r][c]` in a grid, `gap` pixels apart, with `labels`
@@ -70,7 +79,13 @@ pub fn grid(rows: &[Vec<RgbImage>], gap: u32, labels: &Labels) -> Result<RgbImag
         .iter()
         .map(|r| r.iter().map(|i| i.height()).max().unwrap_or(0))
         .collect();
-    let size = text_size(heights.iter().copied().max().unwrap_or(0));
+    let side = heights
+        .iter()
+        .chain(&widths)
+        .copied()
+        .filter(|&s| s > 0)
+        .min();
+    let size = text_size(side.unwrap_or(0));
     let line = size + size / 2;
     // Margins: the widest row name (estimated at 0.6 em per character), one
     // line for the column headings, one for the title.
@@ -196,6 +211,8 @@ mod tests {
         };
         let img = grid(&rows, 4, &labels).unwrap();
         let size = text_size(80);
+        assert_eq!(frame_heading(9, 0.05), "frame 9, t = 0.45 s");
+        assert_eq!(frame_heading(20, 0.05), "frame 20, t = 1 s");
         let line = size + size / 2;
         let left = 8 * size * 6 / 10 + size;
         assert_eq!(img.width(), left + 204);

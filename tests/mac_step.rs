@@ -119,7 +119,7 @@ fn closed_box_hot_cold_holds_its_walls() {
             box_kind: BoxKind::Closed,
             ..SolverConfig::default()
         },
-        ..Default::default()
+        ..HotColdConfig::head_on()
     };
     let mut sim = config.build().unwrap();
     for _ in 0..config.solver.frames {

@@ -77,7 +77,7 @@ fn hot_cold_is_mirror_symmetric_and_buoyant_for_every_scheme_and_mode() {
                     density,
                     ..SolverConfig::default()
                 },
-                ..Default::default()
+                ..HotColdConfig::head_on()
             };
             let case = format!("{advection:?} × {density:?}");
             let mut sim = config.build().unwrap();

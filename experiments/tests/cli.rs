@@ -207,16 +207,68 @@ fn small_run_writes_whole_outputs() {
 }
 
 #[test]
-fn experiment_06_1_smoke_writes_sequence() {
+fn experiment_06_1_smoke_gases_pass_each_other_unless_head_on() {
     let dir = tempfile::tempdir().unwrap();
     let o = smokelab(
         &["experiment", "06-1", "--smoke", "--quiet", "--out", "e"],
         dir.path(),
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    for f in ["sequence.png", "metrics.csv", "manifest.json"] {
-        assert!(dir.path().join("e").join(f).is_file(), "missing {f}");
+    let e = dir.path().join("e");
+    for f in [
+        "sequence.png",
+        "metrics.csv",
+        "manifest.json",
+        "head_on/metrics.csv",
+    ] {
+        assert!(e.join(f).is_file(), "missing {f}");
     }
+    let rows = |f: &str| -> Vec<std::collections::HashMap<String, String>> {
+        csv::Reader::from_path(e.join(f))
+            .unwrap()
+            .deserialize()
+            .map(|r| r.unwrap())
+            .collect()
+    };
+    let num = |r: &std::collections::HashMap<String, String>, c: &str| -> f64 {
+        r[c].parse().unwrap_or_else(|_| panic!("{c} = {:?}", r[c]))
+    };
+    // At the last frame the default (offset) gases have passed each other,
+    // the head-on ones have not (measured at 16³: 42 % against 2.4 %).
+    let data = rows("data.csv");
+    let last = |offset: f64| {
+        data.iter()
+            .filter(|r| num(r, "offset") == offset)
+            .max_by_key(|r| num(r, "frame") as usize)
+            .unwrap()
+    };
+    let (passing, head_on) = (last(0.5), last(0.0));
+    assert!(num(passing, "hot_past_mid") > 0.3, "{passing:?}");
+    assert!(num(head_on, "hot_past_mid") < 0.1, "{head_on:?}");
+    // The mass reported is metrics.csv's last row.
+    for (row, metrics) in [(passing, "metrics.csv"), (head_on, "head_on/metrics.csv")] {
+        let m = rows(metrics).pop().unwrap();
+        let ratio = num(&m, "hot_mass") / num(&m, "hot_injected");
+        let reported = num(row, "hot_mass_over_injected");
+        assert!(
+            (reported / ratio - 1.0).abs() < 1e-6,
+            "{reported} against {ratio}"
+        );
+    }
+    // The study: the larger the offset, the more gas has passed at the end.
+    let study = rows("offset_study.csv");
+    let frames = study
+        .iter()
+        .map(|r| num(r, "frame") as usize)
+        .max()
+        .unwrap();
+    let passed: Vec<f64> = study
+        .iter()
+        .filter(|r| num(r, "frame") as usize == frames)
+        .map(|r| num(r, "hot_past_mid"))
+        .collect();
+    assert_eq!(passed.len(), 5, "{study:?}");
+    assert!(passed.windows(2).all(|w| w[0] < w[1]), "{passed:?}");
 }
 
 #[test]

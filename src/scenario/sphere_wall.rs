@@ -144,7 +144,7 @@ impl SphereWallConfig {
                 save_every: 0,
                 ..SolverConfig::default()
             },
-            ..HotColdConfig::default()
+            ..HotColdConfig::head_on()
         }
     }
 
