@@ -231,13 +231,15 @@ pub(crate) fn grid(rows: &[Vec<RgbImage>], gap: u32) -> RgbImage {
 
 /// The pictures `pick` of each result at the captured frames, one row per
 /// result named by its label, one column per frame headed by its time
-/// (`capture`, steps of `dt`), under `title`.
-pub(crate) fn frames_grid(
+/// (`capture`, steps of `dt`), under `title`, written to `path` with its
+/// caption ([`panels::save`]).
+pub(crate) fn save_frames(
+    path: &Path,
     title: &str,
     results: &[&ModeResult],
     pick: fn(&Captured) -> RgbImage,
     (capture, dt): (&[usize], f32),
-) -> Result<RgbImage> {
+) -> Result<()> {
     let rows: Vec<Vec<RgbImage>> = results
         .iter()
         .map(|r| r.frames.iter().map(pick).collect())
@@ -252,7 +254,7 @@ pub(crate) fn frames_grid(
         rows: &names,
         columns: &columns,
     };
-    panels::grid(&rows, 4, &labels)
+    panels::save(path, &rows, 4, &labels)
 }
 
 /// The colour of a mode in every plot.

@@ -133,7 +133,7 @@ fn run(ctx: &Context) -> Result<()> {
             rows: &names,
             columns: &columns,
         };
-        io::write_png(&ctx.out.join(file), &panels::grid(&panels, 4, &labels)?)?;
+        panels::save(&ctx.out.join(file), &panels, 4, &labels)?;
     }
     let study = offset_study(&config, &frames)?;
     write_rows(&ctx.out.join("offset_study.csv"), &study)

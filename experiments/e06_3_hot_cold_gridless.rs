@@ -117,10 +117,7 @@ fn run(ctx: &Context) -> Result<()> {
         ),
     ] {
         let title = format!("06-3 hot/cold, gridless density on a {res}³ velocity grid: {what}");
-        io::write_png(
-            &ctx.out.join(file),
-            &dc::frames_grid(&title, &[gridless], pick, times)?,
-        )?;
+        dc::save_frames(&ctx.out.join(file), &title, &[gridless], pick, times)?;
     }
     io::write_png(
         &ctx.out.join("frame.png"),

@@ -155,10 +155,7 @@ fn run(ctx: &Context) -> Result<()> {
         ),
     ] {
         let title = format!("06-5 hot/cold by density mode, {res}³ velocity grid: {what}");
-        io::write_png(
-            &ctx.out.join(file),
-            &dc::frames_grid(&title, &all, pick, times)?,
-        )?;
+        dc::save_frames(&ctx.out.join(file), &title, &all, pick, times)?;
     }
     let finals: Vec<image::RgbImage> = results
         .iter()
@@ -166,14 +163,12 @@ fn run(ctx: &Context) -> Result<()> {
         .collect();
     let names: Vec<String> = results.iter().map(|r| r.label.clone()).collect();
     let last = panels::frame_heading(config.solver.frames, config.solver.dt);
-    io::write_png(
+    panels::save_row(
         &ctx.out.join("final.png"),
-        &panels::row(
-            &finals,
-            6,
-            &format!("06-5 the last frame by density mode ({last})"),
-            &names,
-        )?,
+        &finals,
+        6,
+        &format!("06-5 the last frame by density mode ({last})"),
+        &names,
     )?;
     let runs: Vec<(String, std::path::PathBuf)> = results
         .iter()

@@ -240,7 +240,7 @@ fn run(ctx: &Context) -> Result<()> {
             rows: &names,
             columns: &columns,
         };
-        io::write_png(&ctx.out.join(file), &panels::grid(&rows, 6, &labels)?)?;
+        panels::save(&ctx.out.join(file), &rows, 6, &labels)?;
     }
     Ok(())
 }

@@ -4,7 +4,9 @@
 //! Nothing on the page is written by hand, so nothing can go stale: the
 //! headings are the registry's (id, the figures of the notes reproduced,
 //! title), the commands and commits come from each folder's
-//! `manifest.json`, and a figure's caption is, in this order, the manifest
+//! `manifest.json`, and a figure's caption is, in this order, the one its
+//! experiment generated from the labels in its pixels (`figures.json`
+//! beside it, [`crate::panels::save`]), the manifest
 //! entry that names it (a convergence study's observed order), the alt text
 //! `paper/paper.md` gives it, or its file name with the experiment's title. Links are relative, so the page opens from the
 //! folder (or from a copy of it); the CSS is inline.
@@ -75,9 +77,27 @@ impl Provenance {
             source,
             command: field("command"),
             commit: field("commit"),
-            captions: study_captions(json.get("extra")),
+            captions: generated_captions(&results.join(dir))
+                .into_iter()
+                .chain(study_captions(json.get("extra")))
+                .collect(),
         })
     }
+}
+
+/// The captions an experiment generated for the figures of `dir`
+/// ([`crate::panels::CAPTIONS`]), by file stem; none if the file is
+/// missing or unreadable.
+fn generated_captions(dir: &Path) -> BTreeMap<String, String> {
+    let captions =
+        crate::panels::read_captions(&dir.join(crate::panels::CAPTIONS)).unwrap_or_default();
+    captions
+        .into_iter()
+        .filter_map(|(file, caption)| {
+            let stem = Path::new(&file).file_stem()?.to_string_lossy().into_owned();
+            Some((stem, caption))
+        })
+        .collect()
 }
 
 /// Captions from a manifest's `extra` when it is a list of studies, each

@@ -4,10 +4,18 @@
 //! title. A figure that is read without its caption still says what each
 //! panel is.
 //!
+//! [`save`] writes such a figure with its caption, generated from the same
+//! labels, into `figures.json` beside it (file name → caption), which the
+//! gallery and the paper use, so that no caption can disagree with the
+//! picture.
+//!
 //! Text is drawn with the plots' embedded DejaVu Sans ([`crate::plot`]),
 //! through plotters' bitmap backend over the composed image's buffer.
 
-use anyhow::{anyhow, ensure, Result};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::{anyhow, ensure, Context as _, Result};
 use image::{Rgb, RgbImage};
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -117,6 +125,61 @@ pub fn grid(rows: &[Vec<RgbImage>], gap: u32, labels: &Labels) -> Result<RgbImag
     Ok(out)
 }
 
+/// The caption of a [`grid`] labelled `labels`: its title, then what its
+/// rows and columns are, in the order they appear.
+pub fn caption(labels: &Labels) -> String {
+    let mut parts = vec![];
+    if !labels.title.is_empty() {
+        parts.push(labels.title.to_string());
+    }
+    if !labels.rows.is_empty() {
+        parts.push(format!("Rows, top to bottom: {}", labels.rows.join("; ")));
+    }
+    if !labels.columns.is_empty() {
+        parts.push(format!(
+            "Columns, left to right: {}",
+            labels.columns.join("; ")
+        ));
+    }
+    parts.join(". ") + "."
+}
+
+/// The file in a figure's folder that maps its figures' file names to their
+/// captions.
+pub const CAPTIONS: &str = "figures.json";
+
+/// [`grid`] written to `path` (PNG), and its [`caption`] recorded under the
+/// file's name in [`CAPTIONS`] beside it (other entries kept).
+///
+/// # Errors
+/// As [`grid`]; an unwritable folder, or a [`CAPTIONS`] file that is not a
+/// map of strings.
+pub fn save(path: &Path, rows: &[Vec<RgbImage>], gap: u32, labels: &Labels) -> Result<()> {
+    smokelab::io::write_png(path, &grid(rows, gap, labels)?)?;
+    let name = path
+        .file_name()
+        .with_context(|| format!("{}: not a file path", path.display()))?
+        .to_string_lossy()
+        .into_owned();
+    let file = path.with_file_name(CAPTIONS);
+    let mut captions = read_captions(&file)?;
+    captions.insert(name, caption(labels));
+    smokelab::io::write_json(&file, &captions)
+}
+
+/// The captions of a [`CAPTIONS`] file (empty if there is none).
+///
+/// # Errors
+/// A file that cannot be read or is not a map of strings.
+pub fn read_captions(file: &Path) -> Result<BTreeMap<String, String>> {
+    match std::fs::read_to_string(file) {
+        Ok(text) => serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a map of file names to captions", file.display())),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(BTreeMap::new()),
+        Err(e) => Err(e).with_context(|| format!("cannot read {}", file.display())),
+    }
+}
+
 /// One row of panels with a heading over each, as [`grid`].
 ///
 /// # Errors
@@ -131,6 +194,25 @@ pub fn row(images: &[RgbImage], gap: u32, title: &str, headings: &[String]) -> R
             columns: headings,
         },
     )
+}
+
+/// [`row`] written to `path` with its caption, as [`save`].
+///
+/// # Errors
+/// As [`save`].
+pub fn save_row(
+    path: &Path,
+    images: &[RgbImage],
+    gap: u32,
+    title: &str,
+    headings: &[String],
+) -> Result<()> {
+    let labels = Labels {
+        title,
+        rows: &[],
+        columns: headings,
+    };
+    save(path, &[images.to_vec()], gap, &labels)
 }
 
 /// The labels of [`grid`] written into `out`, whose panel area starts at
@@ -252,6 +334,35 @@ mod tests {
             ),
             0
         );
+    }
+
+    #[test]
+    fn saved_figures_carry_their_labels_as_captions() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows = vec![vec![panel(40, 40, 0), panel(40, 40, 9)]];
+        let names = ["gridless".to_string()];
+        let heads = [
+            "frame 1, t = 0.05 s".to_string(),
+            "frame 2, t = 0.1 s".to_string(),
+        ];
+        let labels = Labels {
+            title: "06-3 slices",
+            rows: &names,
+            columns: &heads,
+        };
+        save(&dir.path().join("a.png"), &rows, 2, &labels).unwrap();
+        save_row(&dir.path().join("b.png"), &rows[0], 2, "", &heads).unwrap();
+        let captions = read_captions(&dir.path().join(CAPTIONS)).unwrap();
+        assert_eq!(
+            captions["a.png"],
+            "06-3 slices. Rows, top to bottom: gridless. \
+             Columns, left to right: frame 1, t = 0.05 s; frame 2, t = 0.1 s."
+        );
+        assert_eq!(
+            captions["b.png"],
+            "Columns, left to right: frame 1, t = 0.05 s; frame 2, t = 0.1 s."
+        );
+        assert!(dir.path().join("a.png").is_file() && dir.path().join("b.png").is_file());
     }
 
     #[test]

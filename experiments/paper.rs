@@ -100,6 +100,43 @@ fn performance(perf: &Path) -> Result<String> {
     ))
 }
 
+/// `doc` (the Markdown at `md`) with the alt text of every image whose
+/// folder has a generated caption for it ([`crate::panels::CAPTIONS`])
+/// replaced by that caption, so that the paper describes each labelled
+/// figure as its pixels do.
+///
+/// # Errors
+/// A captions file that is not a map of strings.
+pub fn generated_alt_texts(doc: &str, md: &Path) -> Result<String> {
+    let base = md.parent().unwrap_or(Path::new("."));
+    let mut out = String::with_capacity(doc.len());
+    let mut rest = doc;
+    while let Some(at) = rest.find("![") {
+        out.push_str(&rest[..at]);
+        let image = &rest[at..];
+        let parsed = image[2..].split_once("](").and_then(|(alt, tail)| {
+            let (target, _) = tail.split_once(')')?;
+            (!alt.contains('\n')).then_some((alt, target))
+        });
+        let Some((alt, target)) = parsed else {
+            out.push_str("![");
+            rest = &image[2..];
+            continue;
+        };
+        let path = base.join(target);
+        let file = path.file_name().map(|f| f.to_string_lossy().into_owned());
+        let captions = crate::panels::read_captions(&path.with_file_name(crate::panels::CAPTIONS))?;
+        let text = file
+            .and_then(|f| captions.get(&f).cloned())
+            .map(|c| c.replace(['[', ']'], ""))
+            .unwrap_or_else(|| alt.to_string());
+        out.push_str(&format!("![{text}]({target})"));
+        rest = &image[2 + alt.len() + 2 + target.len() + 1..];
+    }
+    out.push_str(rest);
+    Ok(out)
+}
+
 /// Refresh the generated blocks of `root/paper/paper.md` and, if pandoc is
 /// installed, write `root/paper/paper.html`.
 ///
@@ -117,6 +154,7 @@ pub fn build(root: &Path) -> Result<()> {
         )
     })?;
     doc = replace_block(&doc, "orders", &table)?;
+    doc = generated_alt_texts(&doc, &md)?;
     let perf = root.join("results/perf");
     if perf.join("table.md").exists() && doc.contains("<!-- performance:begin -->") {
         doc = replace_block(&doc, "performance", &performance(&perf)?)?;
@@ -153,6 +191,25 @@ pub fn build(root: &Path) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn alt_texts_come_from_generated_captions() {
+        let dir = tempfile::tempdir().unwrap();
+        let (paper, fig) = (dir.path().join("paper"), dir.path().join("results/06-1"));
+        std::fs::create_dir_all(&paper).unwrap();
+        std::fs::create_dir_all(&fig).unwrap();
+        std::fs::write(
+            fig.join(crate::panels::CAPTIONS),
+            r#"{"a.png": "Rows: [x]; y."}"#,
+        )
+        .unwrap();
+        let doc = "t ![old](../results/06-1/a.png) u ![kept](../results/06-1/b.png) ![](x.png)\n";
+        let out = generated_alt_texts(doc, &paper.join("paper.md")).unwrap();
+        assert_eq!(
+            out,
+            "t ![Rows: x; y.](../results/06-1/a.png) u ![kept](../results/06-1/b.png) ![](x.png)\n"
+        );
+    }
 
     #[test]
     fn replaces_only_the_named_block() {

@@ -330,7 +330,7 @@ fn mass_over_injected(res: usize, advection: Scheme, checkpoints: &[usize]) -> V
                 density: mode,
                 ..SolverConfig::default()
             },
-            ..Default::default()
+            ..HotColdConfig::head_on()
         };
         let dt = config.solver.dt;
         let mut sim = config.build().unwrap();
@@ -359,7 +359,7 @@ fn mass_over_injected(res: usize, advection: Scheme, checkpoints: &[usize]) -> V
 
 /// Which mode keeps more of what it injected depends on the advection
 /// scheme and the time, so this states the measured relation per case
-/// (hot/cold, Δt 0.05, mass over own injection at t = 1 and t = 2):
+/// (hot/cold head-on, Δt 0.05, mass over own injection at t = 1 and t = 2):
 ///
 /// | case | gridded | gridless | SELMA |
 /// |---|---|---|---|
