@@ -1,67 +1,88 @@
 //! # 08-3 — SELMA applies a simulated wake to a modelled cloud (fig 8.3)
 //!
-//! Reproduces the idea of the notes' figure 8.3 (§8.3, *The A-Team*): "an
-//! aircraft passing through cloud material leaves behind a wake disturbance
-//! in the cloud. The velocity field is from a fluid simulation that does not
+//! Reproduces the notes' figure 8.3 (§8.3, *The A-Team*): "an aircraft
+//! passing through cloud material leaves behind a wake disturbance in the
+//! cloud. The velocity field is from a fluid simulation that does not
 //! include the presence of the cloud. The cloud was modeled using the
 //! methods in chapter 3, then displaced using SELMA."
 //!
-//! Here the aircraft is a sphere (radius 0.4) flying through still air at
-//! speed U = 1. The simulation runs in the sphere's frame — a uniform stream
-//! past a fixed obstacle in a periodic 10 × 4 × 4 box, inviscid, exact
-//! obstacles with the reflecting rule (free slip) — and is warmed up for 2
-//! time units so the wake exists before the cloud arrives. The
-//! cloud is the three-layer billowed cloud of 03-4 (ch. 3), placed upstream;
-//! its density is `ρ₀ ∘ X` with `X` SELMA's backward map on a map grid twice
-//! as fine as the velocity, never re-anchored (no sources, so the cloud
-//! stays procedural: eq 8.3). Renders are in the still air's frame
-//! (`ρ_lab(x, t) = ρ(x + U t, t)`), so the cloud stays put and the sphere's
-//! path crosses it from right to left.
+//! Set-up. The aircraft is a sphere of diameter `D = 0.6` flying at speed
+//! `U = 1` through still air. Obstacles do not move in this code, so the
+//! flow is simulated in the sphere's frame: a uniform stream past a fixed
+//! sphere in a periodic `12 × 6 × 6` box, inviscid, exact obstacle with the
+//! sticky rule at α = 0 (eq 6.7; the flow along the wall is held at zero,
+//! so the surface sheds vorticity), warmed up for `5 D/U` so the wake
+//! exists before the cloud arrives. The cloud is the three-layer billowed
+//! cloud of 03-4 (ch. 3, eqs 3.5–3.8) scaled by 2.5, about 3.4 across the
+//! path — 5.7 body diameters (`width`) — and 4 along it, placed upstream
+//! with the flight path through its middle. The stream carries it through the sphere; its density is
+//! `ρ₀ ∘ X` with `X` SELMA's backward map (eq 8.8) on a map grid twice as
+//! fine as the velocity, never re-anchored (no sources: the cloud stays
+//! procedural). Everything shown is in the still air's frame,
+//! `f_lab(x, t) = f(x + U t x̂, t)`, where the cloud would stay put without
+//! the sphere and the sphere flies from right to left through it.
 //!
-//! The same run without the sphere (a uniform stream) leaves the cloud
-//! exactly translated; the disturbance `∫|ρ_lab(t) − ρ₀| / ∫ρ₀` therefore
-//! measures the wake alone. `data.csv` reports it inside and outside a tube
-//! of two sphere radii around the flight path, with the cloud's mass in the
-//! view box (the cloud's box, extended 1.5 along the flight).
+//! Measures (`data.csv`, one row per shown time `t`, in units of `D/U`):
+//! - the **displacement** of the material now at lab point `x`,
+//!   `d(x) = x − X(x + U t x̂)` — the lab position now minus the position it
+//!   came from (the sphere and lab frames agree at `t = 0`), taken to the
+//!   nearest periodic image of the box; a uniform stream alone gives
+//!   `d = 0` exactly (SELMA's map of a uniform translation is exact);
+//! - the **corridor**: the cylinder of radius `1.5 D` around the flight path
+//!   (the line through the sphere's centre along x). `moved_outside` is the
+//!   share of the cloud mass outside it (by current position) displaced by
+//!   more than `D`; `moved_inside` the same share inside it;
+//! - the cloud's **width** across the path at `t = 0` in body diameters
+//!   (the extent in y of the cells with density above ½);
+//! - the **vorticity** `ω = ∇ × u` (central differences of the face
+//!   velocity, step one cell) over the fluid cells of the sphere frame: rms
+//!   inside the corridor and outside it, and the peak, in units of `U/D`.
 //!
-//! What it shows (default size): the sphere bores a tunnel through the
-//! cloud and drags two sheets of cloud along its path — Darwin's drift: air
-//! near the stagnation streamline travels with the body; the disturbance
-//! within two radii of the path is about 100× that outside (`data.csv`).
-//! At 32 cells across, the wake is laminar: the notes' picture shows a
-//! turbulent wake from a production-scale simulation, which this grid does
-//! not resolve; the sticky rule at α = 0 gave the same picture with more
-//! of the cloud dragged out of view.
+//! What it shows (default size): the sphere cuts a channel through the
+//! middle of the cloud and draws the cloud in its wake out behind it into a
+//! tail that follows the body (in the sphere's frame the wake is slow air,
+//! so in the lab it travels with the sphere); after the passage about one
+//! seventh of the mass in the corridor has moved more than `D`, while
+//! outside it none has and the mean displacement is about `0.05 D`
+//! (`data.csv`). The vorticity sits in the wake — two shear layers of
+//! opposite `ω_z` on the two sides of the path, rms about `0.4 U/D` in the
+//! corridor against `10⁻⁴ U/D` outside. At 48 cells across (5 per
+//! diameter) the wake is laminar and steady: the notes' picture shows a
+//! turbulent wake from a production-scale simulation that this grid does
+//! not resolve.
 //!
-//! Run: `smokelab experiment 08-3` (about 30 s on 2 cores: 80 × 32 × 32
-//! velocity cells, 256² renders; `--full` 160 × 64 × 64 and 512²; `--smoke`
-//! 40 × 16 × 16 and 64²).
+//! Run: `smokelab experiment 08-3` (about 2 min on 2 cores: 96 × 48 × 48
+//! velocity cells, 256² renders; `--full` 192 × 96 × 96 and 512²; `--smoke`
+//! 48 × 24 × 24 and 64², about 10 s).
 //!
-//! Writes `results/08-3/`: `wake.png` (renders at t = 0, when the sphere is
-//! in the cloud, and after it has passed), `slice.png` (mid-plane slices of
-//! the cloud at the same times), `flow.png` (the stream's x-velocity in the
-//! mid-plane at the end of warm-up: the wake's deficit), `data.csv`,
+//! Writes `results/08-3/`: `wake.png` (renders before, while the sphere is
+//! in the cloud and after it has passed, the sphere drawn in orange),
+//! `slice.png` (mid-plane slices through the path at the same times: the
+//! cloud's density and the vorticity `ω_z`), `flow.png` (the stream in the
+//! sphere's frame at the end of warm-up: x-velocity and `ω_z`), `data.csv`,
 //! `manifest.json`.
 
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::Result;
-use glam::Vec3;
+use anyhow::{bail, Result};
+use glam::{Mat3, Vec3};
 use image::RgbImage;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::e03_4_billow::billowed;
 use crate::model_render::{by_size, render_densities};
+use crate::panels;
 use crate::registry::{Context, Experiment};
 use crate::table::write_rows;
 use smokelab::advection::Backtrace;
 use smokelab::boundary::{
     Boundary, BoundaryOptions, BoundaryRule, Obstacle, ObstacleMethod, Sphere,
 };
-use smokelab::density::{DensityMode, DensityModel, DensityOptions};
+use smokelab::density::{BackwardMap, DensityMode, DensityModel, DensityOptions, SelmaField};
 use smokelab::domain::Domain;
-use smokelab::field::algebra::{compose, dot};
+use smokelab::field::algebra::{bilinear, compose, dot, jacobian};
 use smokelab::field::ops::{self, constant, constant_vector, identity, vector_sum};
 use smokelab::field::{Scalar, Vector};
 use smokelab::grid::ScalarGrid;
@@ -74,25 +95,36 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "08-3",
     reproduces: "fig 8.3",
     title: "SELMA applies a simulated sphere wake to a modelled cloud",
-    cost: "~30 s",
+    cost: "~2 min",
     run,
 };
 
-/// Box edge across the flight path; the box is `2.5 L` long along it.
-const L: f32 = 4.0;
+/// Box edge across the flight path; the box is `2 L` long along it.
+const L: f32 = 6.0;
 /// Flight speed.
 const U: f32 = 1.0;
-/// The sphere: radius and centre (sphere frame).
-const RADIUS: f32 = 0.4;
-const SPHERE: Vec3 = Vec3::new(6.0, 2.15, 2.0);
-/// The cloud's centre at t = 0 (the modelling box `[−1.1, 1.1]³` moved here).
-const CLOUD: Vec3 = Vec3::new(2.5, 2.0, 2.0);
+/// The sphere: radius and centre (sphere frame), on the box's mid-line.
+const RADIUS: f32 = 0.3;
+const SPHERE: Vec3 = Vec3::new(5.7, 3.0, 3.0);
+/// Body diameter, the unit of lengths in `data.csv`.
+const D: f32 = 2.0 * RADIUS;
+/// Radius of the wake's corridor around the flight path.
+const CORRIDOR: f32 = 1.5 * D;
+/// The cloud: 03-4's model (box `[−1.1, 1.1]³`) scaled by this, centred at
+/// `CLOUD` at t = 0, upstream of the sphere.
+const CLOUD_SCALE: f32 = 2.5;
+const CLOUD: Vec3 = Vec3::new(3.1, 3.0, 3.0);
+/// Half-width of the scaled modelling box.
+const CLOUD_HALF: f32 = 1.1 * CLOUD_SCALE;
 /// Time step, warm-up and flight times.
 const DT: f32 = 0.05;
-const WARM_UP: f32 = 2.0;
-const FLIGHT: f32 = 6.0;
-/// Render times within the flight: before, sphere in the cloud, after.
-const SHOWN: [f32; 3] = [0.0, 3.5, 6.0];
+const WARM_UP: f32 = 5.0 * D / U;
+const FLIGHT: f32 = 10.0 * D / U;
+/// Shown times within the flight, in `D/U`: before, the sphere in the
+/// cloud, after it has left.
+const SHOWN: [f32; 3] = [0.0, 5.0, 10.0];
+/// Vorticity of full colour in the slices, in `U/D`.
+const VORTICITY_SCALE: f32 = 1.0;
 
 #[derive(Serialize)]
 struct Config {
@@ -102,113 +134,166 @@ struct Config {
     speed: f32,
     sphere_center: Vec3,
     sphere_radius: f32,
+    corridor_radius: f32,
     cloud_center: Vec3,
+    cloud_scale: f32,
     warm_up: f32,
     flight: f32,
     boundary: &'static str,
     pixels: u32,
-    shown: [f32; 3],
+    shown_d_over_u: [f32; 3],
 }
 
-/// One row of `data.csv`: the cloud at one shown time.
+/// One row of `data.csv`: the cloud and the flow at one shown time.
 #[derive(Serialize)]
 struct Row {
-    case: &'static str,
+    /// Flight time in `D/U`.
     time: f32,
+    /// Cloud mass in the view box.
     mass: f64,
-    /// `∫|ρ_lab − ρ₀| / ∫ρ₀` inside the tube of two radii around the path.
-    disturbance_near: f64,
-    /// The same outside the tube.
-    disturbance_far: f64,
+    /// Extent of the cloud across the path at t = 0, in `D`.
+    width: f64,
+    /// Share of the cloud mass outside the corridor.
+    outside_share: f64,
+    /// Share of the mass outside the corridor displaced more than `D`.
+    moved_outside: f64,
+    /// Share of the mass inside the corridor displaced more than `D`.
+    moved_inside: f64,
+    /// Mass-weighted mean `|d|` outside the corridor, in `D`.
+    mean_displacement_outside: f64,
+    /// Rms `|ω|` over the fluid cells inside / outside the corridor, `U/D`.
+    vorticity_rms_corridor: f64,
+    vorticity_rms_outside: f64,
+    /// Peak `|ω|` over the fluid cells, `U/D`.
+    vorticity_peak: f64,
 }
 
 fn run(ctx: &Context) -> Result<()> {
-    let (n, pixels) = by_size(ctx.size, [(16, 64), (32, 256), (64, 512)]);
+    let (n, pixels) = by_size(ctx.size, [(24, 64), (48, 256), (96, 512)]);
     let start = Instant::now();
     io::create_output_dir(&ctx.out)?;
-    let cloud0 = translated(ops::mask(billowed(1.0, 2 * n)?), CLOUD);
-    // The cloud's box, extended 1.5 along the flight so the gas dragged
-    // along the path stays in view.
+    let cloud0 = scaled(ops::mask(billowed(1.0, 2 * n)?), CLOUD_SCALE, CLOUD);
+    // The cloud's box in the lab, extended 2.5 D along the sphere's flight
+    // (toward −x), where the wake carries cloud along, and 1 D the other
+    // way, where the sphere starts.
+    let view_cell = 0.5 * L / n as f32;
+    let view_lo = CLOUD - Vec3::new(CLOUD_HALF + 2.5 * D, CLOUD_HALF, CLOUD_HALF);
+    let view_size = Vec3::new(
+        2.0 * CLOUD_HALF + 3.5 * D,
+        2.0 * CLOUD_HALF,
+        2.0 * CLOUD_HALF,
+    );
     let view = Domain::new(
-        CLOUD - Vec3::new(3.0, 1.5, 1.5),
-        1.5 / n as f32,
-        [3 * n, 2 * n, 2 * n],
+        view_lo,
+        view_cell,
+        (view_size / view_cell)
+            .round()
+            .to_array()
+            .map(|c| c as usize),
     )?;
-    let mut rows = vec![];
-    let mut renders: Vec<RgbImage> = vec![];
-    let mut slices: Vec<RgbImage> = vec![];
-    let mut flow = None;
-    for case in ["sphere", "no-sphere"] {
-        let (mut sim, flow_image) = warmed_up(n, case == "sphere")?;
-        flow = flow.or(flow_image);
-        sim.gases.push(cloud_gas(&sim, cloud0.clone(), 5 * n));
-        if let Some(b) = &sim.boundary {
-            let walls = Arc::new(b.wall_stop());
-            sim.gases[0].model.set_walls(&walls);
-        }
-        let t0 = sim.time();
-        let reference = lab_density(&sim, t0);
-        let reference_grid = ScalarGrid::from_field(view, &*reference);
-        for &t in &SHOWN {
-            while sim.time() - t0 < t - 0.5 * DT {
-                sim.step();
-            }
-            let density = lab_density(&sim, t0);
-            let grid = ScalarGrid::from_field(view, &*density);
-            let (near, far) = disturbance(&grid, &reference_grid, &view);
-            rows.push(Row {
-                case,
-                time: t,
-                mass: grid.total(),
-                disturbance_near: near,
-                disturbance_far: far,
-            });
-            if case == "sphere" {
-                let color = Vec3::new(0.92, 0.93, 0.95);
-                renders.push(render_densities(
-                    vec![("cloud".into(), density.clone(), color)],
-                    view,
-                    pixels,
-                    0.5,
-                    6.0,
-                )?);
-                slices.push(preview::field_slice(
-                    &[preview::FieldLayer {
-                        field: &*density,
-                        color: [0.95, 0.95, 1.0],
-                    }],
-                    &view,
-                    pixels,
-                    3.0,
-                ));
-            }
-        }
+    let (mut sim, flow) = warmed_up(n)?;
+    sim.gases.push(cloud_gas(&sim, cloud0.clone(), 4 * n));
+    if let Some(b) = &sim.boundary {
+        let walls = Arc::new(b.wall_stop());
+        sim.gases[0].model.set_walls(&walls);
     }
+    let t0 = sim.time();
+    let width = cloud_width(&ScalarGrid::from_field(view, &*cloud0), &view);
+    if width < 5.0 {
+        bail!("08-3: the cloud is {width:.2} body diameters across; the set-up needs at least 5");
+    }
+    let mut rows = vec![];
+    let (mut renders, mut density_slices, mut vorticity_slices) = (vec![], vec![], vec![]);
+    for &t in &SHOWN {
+        while sim.time() - t0 < t * D / U - 0.5 * DT {
+            sim.step();
+        }
+        let tau = sim.time() - t0;
+        let density = lab(sim.gases[0].model.field(), tau);
+        let moved = displacement_shares(&selma_field(&sim)?, &view, tau, sim.domain());
+        let vort = vorticity_stats(&sim);
+        rows.push(Row {
+            time: t,
+            mass: moved.mass,
+            width,
+            outside_share: moved.outside_share,
+            moved_outside: moved.outside,
+            moved_inside: moved.inside,
+            mean_displacement_outside: moved.mean_outside,
+            vorticity_rms_corridor: vort[0],
+            vorticity_rms_outside: vort[1],
+            vorticity_peak: vort[2],
+        });
+        let body = ops::scale(
+            ops::mask(ops::sphere(SPHERE - Vec3::X * U * tau, RADIUS)),
+            20.0,
+        );
+        renders.push(render_densities(
+            vec![
+                ("cloud".into(), density.clone(), Vec3::new(0.92, 0.93, 0.95)),
+                ("sphere".into(), body.clone(), Vec3::new(1.0, 0.55, 0.2)),
+            ],
+            view,
+            pixels,
+            0.5,
+            6.0,
+        )?);
+        density_slices.push(preview::field_slice(
+            &[
+                preview::FieldLayer {
+                    field: &*density,
+                    color: [0.95, 0.95, 1.0],
+                },
+                preview::FieldLayer {
+                    field: &*body,
+                    color: [1.0, 0.55, 0.2],
+                },
+            ],
+            &view,
+            pixels,
+            3.0,
+        ));
+        vorticity_slices.push(vorticity_slice(&lab(vorticity_z(&sim), tau), &view, pixels));
+    }
+    let headings: Vec<String> = SHOWN.iter().map(|t| format!("t = {t} D/U")).collect();
     io::write_png(
         &ctx.out.join("wake.png"),
-        &preview::side_by_side(&renders, 6),
+        &panels::row(
+            &renders,
+            6,
+            "render, still-air frame: sphere (orange) flies right to left",
+            &headings,
+        )?,
     )?;
     io::write_png(
         &ctx.out.join("slice.png"),
-        &preview::side_by_side(&slices, 6),
+        &panels::grid(
+            &[density_slices, vorticity_slices],
+            6,
+            &panels::Labels {
+                title: "mid-plane through the flight path, still-air frame",
+                rows: &["density".into(), "vorticity ω_z".into()],
+                columns: &headings,
+            },
+        )?,
     )?;
-    if let Some(f) = flow {
-        io::write_png(&ctx.out.join("flow.png"), &f)?;
-    }
+    io::write_png(&ctx.out.join("flow.png"), &flow)?;
     write_rows(&ctx.out.join("data.csv"), &rows)?;
     let config = Config {
-        cells: [5 * n / 2, n, n],
-        map_cells: 5 * n,
+        cells: [2 * n, n, n],
+        map_cells: 4 * n,
         dt: DT,
         speed: U,
         sphere_center: SPHERE,
         sphere_radius: RADIUS,
+        corridor_radius: CORRIDOR,
         cloud_center: CLOUD,
+        cloud_scale: CLOUD_SCALE,
         warm_up: WARM_UP,
         flight: FLIGHT,
-        boundary: "exact, reflect (free slip)",
+        boundary: "exact, sticky, alpha 0",
         pixels,
-        shown: SHOWN,
+        shown_d_over_u: SHOWN,
     };
     io::write_json(
         &ctx.out.join("manifest.json"),
@@ -221,55 +306,66 @@ fn run(ctx: &Context) -> Result<()> {
     )
 }
 
-/// `f` moved by `offset`: `f(x − offset)`.
-fn translated(f: Scalar, offset: Vec3) -> Scalar {
-    compose(f, vector_sum(identity(), constant_vector(-offset)))
+/// `f` scaled by `s` about the origin and moved to `center`:
+/// `f((x − center) / s)`.
+fn scaled(f: Scalar, s: f32, center: Vec3) -> Scalar {
+    let map = ops::vector_scale(vector_sum(identity(), constant_vector(-center)), 1.0 / s);
+    compose(f, map)
 }
 
-/// The stream past the sphere (or without it) in the sphere's frame, after
-/// the warm-up; with the sphere also an image of the mid-plane x-velocity
-/// (white = U, black = at rest or reversed).
-fn warmed_up(n: usize, with_sphere: bool) -> Result<(Simulation, Option<RgbImage>)> {
-    let domain = Domain::new(Vec3::ZERO, L / n as f32, [5 * n / 2, n, n])?;
+/// The stream past the sphere in the sphere's frame after the warm-up, and
+/// the figure of its mid-plane: x-velocity (white = U, black = at rest or
+/// reversed) and vorticity `ω_z`.
+fn warmed_up(n: usize) -> Result<(Simulation, RgbImage)> {
+    let domain = Domain::new(Vec3::ZERO, L / n as f32, [2 * n, n, n])?;
     let params = StepParams {
         dt: DT,
         viscosity: 0.0,
         gravity: Vec3::ZERO,
         backtrace: Backtrace::Rk2,
     };
-    let mut sim = Simulation::new(domain, params, vec![]);
-    if with_sphere {
-        let sphere: Obstacle = Arc::new(Sphere {
-            center: SPHERE,
-            radius: RADIUS,
-        });
-        let options = BoundaryOptions {
-            method: ObstacleMethod::Exact,
-            rule: BoundaryRule::Reflect,
-            alpha: 1.0,
-            passes: 1,
-        };
-        sim = sim.with_boundary(Boundary::new(domain, &sphere, options)?);
-    }
+    let sphere: Obstacle = Arc::new(Sphere {
+        center: SPHERE,
+        radius: RADIUS,
+    });
+    let options = BoundaryOptions {
+        method: ObstacleMethod::Exact,
+        rule: BoundaryRule::Sticky,
+        alpha: 0.0,
+        passes: 1,
+    };
+    let mut sim = Simulation::new(domain, params, vec![])
+        .with_boundary(Boundary::new(domain, &sphere, options)?);
     sim.velocity.slice_mut(0).fill(U);
     sim.project();
     sim.apply_boundary();
     while sim.time() < WARM_UP - 0.5 * DT {
         sim.step();
     }
-    let image = with_sphere.then(|| {
-        let u: Vector = Arc::new(sim.velocity.clone());
-        let speed = dot(u, constant_vector(Vec3::X));
-        preview::field_slice(
-            &[preview::FieldLayer {
-                field: &*speed,
-                color: [1.0, 1.0, 1.0],
-            }],
-            &domain,
-            640,
-            2.0,
-        )
-    });
+    let u: Vector = Arc::new(sim.velocity.clone());
+    let speed = dot(u, constant_vector(Vec3::X));
+    let width = 640;
+    let velocity_image = preview::field_slice(
+        &[preview::FieldLayer {
+            field: &*speed,
+            color: [1.0, 1.0, 1.0],
+        }],
+        &domain,
+        width,
+        2.0,
+    );
+    let image = panels::row(
+        &[
+            velocity_image,
+            vorticity_slice(&vorticity_z(&sim), &domain, width),
+        ],
+        6,
+        "sphere frame, mid-plane, t = 0 D/U (end of warm-up)",
+        &[
+            "x-velocity (white = U)".into(),
+            "vorticity ω_z (red +, blue −)".into(),
+        ],
+    )?;
     Ok((sim, image))
 }
 
@@ -292,32 +388,205 @@ fn cloud_gas(sim: &Simulation, cloud: Scalar, map_cells: usize) -> Gas {
     }
 }
 
-/// The cloud in the still air's frame at flight time `t − t0`:
-/// `ρ(x + U t)` in sphere-frame coordinates.
-fn lab_density(sim: &Simulation, t0: f32) -> Scalar {
-    let shift = Vec3::X * U * (sim.time() - t0);
-    translated(sim.gases[0].model.field(), -shift)
+/// The cloud's SELMA field (density and backward map).
+fn selma_field(sim: &Simulation) -> Result<SelmaField> {
+    match &sim.gases[0].model {
+        DensityModel::Selma(s) => Ok(s.field().clone()),
+        _ => bail!("08-3: the cloud is not a SELMA gas"),
+    }
 }
 
-/// `∫|ρ − ρ₀| / ∫ρ₀` over the cells of `view` within two sphere radii of the
-/// flight path (the line through the sphere's centre along x), and outside.
-fn disturbance(rho: &ScalarGrid, rho0: &ScalarGrid, view: &Domain) -> (f64, f64) {
-    let total: f64 = rho0.data().iter().map(|&v| v as f64).sum();
-    let (mut near, mut far) = (0.0, 0.0);
-    let [nx, ny, nz] = view.dims;
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let p = view.cell_center(i, j, k);
-                let off = Vec3::new(0.0, p.y - SPHERE.y, p.z - SPHERE.z).length();
-                let d = (rho.data()[[k, j, i]] - rho0.data()[[k, j, i]]).abs() as f64;
-                if off < 2.0 * RADIUS {
-                    near += d;
-                } else {
-                    far += d;
+/// A sphere-frame field `f` in the still air's frame at flight time `tau`:
+/// `f(x + U τ x̂)`.
+fn lab(f: Scalar, tau: f32) -> Scalar {
+    compose(
+        f,
+        vector_sum(identity(), constant_vector(Vec3::X * U * tau)),
+    )
+}
+
+/// The vorticity's z-component `ω_z = ∂v/∂x − ∂u/∂y` of the simulation's
+/// velocity (central differences, step one cell), a field in the sphere's
+/// frame.
+fn vorticity_z(sim: &Simulation) -> Scalar {
+    let u: Vector = Arc::new(sim.velocity.clone());
+    let j = jacobian(u, sim.domain().cell);
+    let (ex, ey) = (constant_vector(Vec3::X), constant_vector(Vec3::Y));
+    ops::sum(
+        bilinear(ey.clone(), j.clone(), ex.clone()),
+        ops::scale(bilinear(ex, j, ey), -1.0),
+    )
+}
+
+/// Mid-plane slice of `ω_z` over `domain`: red where positive, blue where
+/// negative, full colour at [`VORTICITY_SCALE`] `U/D`.
+fn vorticity_slice(omega_z: &Scalar, domain: &Domain, width: u32) -> RgbImage {
+    let negative = ops::scale(omega_z.clone(), -1.0);
+    preview::field_slice(
+        &[
+            preview::FieldLayer {
+                field: &**omega_z,
+                color: [1.0, 0.3, 0.2],
+            },
+            preview::FieldLayer {
+                field: &*negative,
+                color: [0.25, 0.5, 1.0],
+            },
+        ],
+        domain,
+        width,
+        2.0 * D / (U * VORTICITY_SCALE),
+    )
+}
+
+/// `ω = ∇ × u` from the Jacobian `J` whose column `j` is `∂u/∂x_j`.
+fn curl(j: Mat3) -> Vec3 {
+    Vec3::new(
+        j.y_axis.z - j.z_axis.y,
+        j.z_axis.x - j.x_axis.z,
+        j.x_axis.y - j.y_axis.x,
+    )
+}
+
+/// Distance of `p` from the flight path (the line through the sphere's
+/// centre along x).
+fn off_path(p: Vec3) -> f32 {
+    Vec3::new(0.0, p.y - SPHERE.y, p.z - SPHERE.z).length()
+}
+
+/// Rms `|ω|` over the fluid cells (centres outside the sphere) of the
+/// sphere frame inside the corridor and outside it, and the peak `|ω|`, all
+/// in `U/D`.
+fn vorticity_stats(sim: &Simulation) -> [f64; 3] {
+    let domain = *sim.domain();
+    let u: Vector = Arc::new(sim.velocity.clone());
+    let j = jacobian(u, domain.cell);
+    // [|ω|² and cells inside, the same outside, peak]
+    let total = fold_slabs(
+        &domain,
+        |points| {
+            let mut m = vec![Mat3::ZERO; points.len()];
+            j.eval_batch(points, &mut m);
+            let mut acc = [0.0; 5];
+            for (p, m) in points.iter().zip(&m) {
+                if p.distance(SPHERE) < RADIUS {
+                    continue;
+                }
+                let w = f64::from(curl(*m).length() * D / U);
+                let c = if off_path(*p) < CORRIDOR { 0 } else { 2 };
+                acc[c] += w * w;
+                acc[c + 1] += 1.0;
+                acc[4] = acc[4].max(w);
+            }
+            acc
+        },
+        |total, slab| {
+            for c in 0..4 {
+                total[c] += slab[c];
+            }
+            total[4] = total[4].max(slab[4]);
+        },
+    );
+    [
+        (total[0] / total[1]).sqrt(),
+        (total[2] / total[3]).sqrt(),
+        total[4],
+    ]
+}
+
+/// Where the cloud went, measured over the cells of the lab-frame `view`.
+struct Displaced {
+    /// Cloud mass in the view.
+    mass: f64,
+    /// Share of the mass outside the corridor.
+    outside_share: f64,
+    /// Share of the mass outside (inside) the corridor displaced more than `D`.
+    outside: f64,
+    inside: f64,
+    /// Mass-weighted mean `|d|` outside the corridor, in `D`.
+    mean_outside: f64,
+}
+
+/// The displacement `d(x) = x − X(x + U τ x̂)` of the cloud at flight time
+/// `tau` over the cells of `view` (lab frame), each component taken to the
+/// nearest periodic image of `sim_box`, and the mass shares it moved more
+/// than `D` outside and inside the corridor (by current position).
+fn displacement_shares(field: &SelmaField, view: &Domain, tau: f32, sim_box: &Domain) -> Displaced {
+    let size = sim_box.size();
+    let shift = Vec3::X * U * tau;
+    let t = fold_slabs(
+        view,
+        |lab| {
+            let body: Vec<Vec3> = lab.iter().map(|&p| p + shift).collect();
+            let mut rho = vec![0.0; body.len()];
+            let mut from = vec![Vec3::ZERO; body.len()];
+            smokelab::field::ScalarField::eval_batch(field, &body, &mut rho);
+            field.map_batch(&body, &mut from);
+            // [mass outside, moved outside, mass inside, moved inside,
+            // mass × |d| outside]
+            let mut acc = [0.0; 5];
+            for ((p, x), &r) in lab.iter().zip(&from).zip(&rho) {
+                let d = *p - *x;
+                let d = d - size * (d / size).round();
+                let c = if off_path(*p) < CORRIDOR { 2 } else { 0 };
+                acc[c] += f64::from(r);
+                if d.length() > D {
+                    acc[c + 1] += f64::from(r);
+                }
+                if c == 0 {
+                    acc[4] += f64::from(r * d.length() / D);
                 }
             }
-        }
+            acc
+        },
+        |total, slab| {
+            for (t, s) in total.iter_mut().zip(slab) {
+                *t += s;
+            }
+        },
+    );
+    let mass = t[0] + t[2];
+    Displaced {
+        mass: mass * f64::from(view.cell_volume()),
+        outside_share: t[0] / mass,
+        outside: t[1] / t[0],
+        inside: t[3] / t[2],
+        mean_outside: t[4] / t[0],
     }
-    (near / total, far / total)
+}
+
+/// `slab(centres)` for every z-slab of `domain`'s cells, in parallel,
+/// folded in slab order by `combine` from zeros (the same bits at any
+/// thread count).
+fn fold_slabs<const N: usize>(
+    domain: &Domain,
+    slab: impl Fn(&[Vec3]) -> [f64; N] + Sync,
+    combine: impl Fn(&mut [f64; N], &[f64; N]),
+) -> [f64; N] {
+    let per_slab: Vec<[f64; N]> = (0..domain.dims[2])
+        .into_par_iter()
+        .map(|k| {
+            let mut centres = vec![];
+            domain.slab_centers(k, &mut centres);
+            slab(&centres)
+        })
+        .collect();
+    let mut total = [0.0; N];
+    for s in &per_slab {
+        combine(&mut total, s);
+    }
+    total
+}
+
+/// The cloud's extent across the flight path (along y) in body diameters:
+/// the span of the cells of `grid` with density above ½.
+fn cloud_width(grid: &ScalarGrid, view: &Domain) -> f64 {
+    let [nx, ny, nz] = view.dims;
+    let rows: Vec<usize> = (0..ny)
+        .filter(|&j| (0..nz).any(|k| (0..nx).any(|i| grid.data()[[k, j, i]] > 0.5)))
+        .collect();
+    match (rows.first(), rows.last()) {
+        (Some(a), Some(b)) => f64::from((b - a + 1) as f32 * view.cell / D),
+        _ => 0.0,
+    }
 }
