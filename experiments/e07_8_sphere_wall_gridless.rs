@@ -20,9 +20,7 @@
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{
-    config, picture_size, run_picture, Holding, March, Panel, Picture,
-};
+use crate::sphere_wall_series::{fine_picture, run_picture, Holding};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -35,17 +33,9 @@ pub const EXPERIMENT: Experiment = Experiment {
 };
 
 fn run(ctx: &Context) -> Result<()> {
-    let config = config(ctx.size);
+    let title = |f| format!("07-8 (fig 7.8): {f} frames gridless");
     run_picture(
         ctx,
-        Picture {
-            title: format!("07-8 (fig 7.8): {} frames gridless", config.frames),
-            config,
-            size: picture_size(ctx.size),
-            panels: vec![Panel::marched(
-                Holding::Gridless { frames: usize::MAX },
-                March::jittered(10.0),
-            )],
-        },
+        fine_picture(ctx, title, Holding::Gridless { frames: usize::MAX }),
     )
 }

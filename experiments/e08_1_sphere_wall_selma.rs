@@ -19,9 +19,7 @@
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{
-    config, picture_size, run_picture, Holding, March, Panel, Picture,
-};
+use crate::sphere_wall_series::{fine_picture, run_picture, Holding};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -34,17 +32,6 @@ pub const EXPERIMENT: Experiment = Experiment {
 };
 
 fn run(ctx: &Context) -> Result<()> {
-    let config = config(ctx.size);
-    run_picture(
-        ctx,
-        Picture {
-            title: format!("08-1 (fig 8.1): {} frames SELMA", config.frames),
-            config,
-            size: picture_size(ctx.size),
-            panels: vec![Panel::marched(
-                Holding::Selma { factor: 1 },
-                March::jittered(10.0),
-            )],
-        },
-    )
+    let title = |f| format!("08-1 (fig 8.1): {f} frames SELMA");
+    run_picture(ctx, fine_picture(ctx, title, Holding::Selma { factor: 1 }))
 }

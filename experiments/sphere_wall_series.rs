@@ -333,6 +333,22 @@ pub(crate) struct Picture {
     pub panels: Vec<Panel>,
 }
 
+/// The picture of 07-8 and 08-1 at the sizes of [`config`]: `holding` alone,
+/// marched with a jittered tenth of a cell; `title` of the frame count.
+pub(crate) fn fine_picture(
+    ctx: &Context,
+    title: impl Fn(usize) -> String,
+    holding: Holding,
+) -> Picture {
+    let config = config(ctx.size);
+    Picture {
+        title: title(config.frames),
+        config,
+        size: picture_size(ctx.size),
+        panels: vec![Panel::marched(holding, March::jittered(10.0))],
+    }
+}
+
 /// Zoom of the crops beside each full frame: the middle half of the
 /// picture, where the two plumes meet and fold the rows, 2× enlarged.
 const ZOOM: u32 = 2;

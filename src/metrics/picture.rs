@@ -106,7 +106,7 @@ mod tests {
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg32;
 
-    fn grey(w: u32, h: u32, f: impl Fn(u32, u32) -> u8) -> RgbImage {
+    fn grey(w: u32, h: u32, mut f: impl FnMut(u32, u32) -> u8) -> RgbImage {
         RgbImage::from_fn(w, h, |x, y| {
             let v = f(x, y);
             Rgb([v, v, v])
