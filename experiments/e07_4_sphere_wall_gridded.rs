@@ -19,12 +19,12 @@
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
 //! flow, 60 frames of Δt 0.05 after 1.5 s of warm-up, 640×480 renders; the
-//! group 07-4 … 07-7 takes about four minutes on 2 cores (1.5 min alone,
-//! the rest for the other engineers' load measured at the regeneration).
+//! group 07-4 … 07-7 took 8 minutes at the regeneration on 2 cores shared
+//! with other work (load ≈ 10), most of it the two fine marches.
 //! `--smoke`: 24³, 12 frames, 128×96 ([`crate::sphere_wall_series::figure_config`]).
 //!
-//! Run: `smokelab experiment 07-4` (about 1 min on 2 cores, most of it the
-//! fine march).
+//! Run: `smokelab experiment 07-4` (77 s at the regeneration, on 2 cores shared
+//! with other work at a load of 10; most of it the fine march).
 //!
 //! Writes `results/07-4/`: `figure.png` (rows: fixed step cell, the
 //! figure; fixed step cell/10; each full frame beside its middle half 2×,
@@ -56,7 +56,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-4",
     reproduces: "figs 7.3, 7.4",
     title: "sphere wall, every frame advected and resampled on the grid",
-    cost: "~1 min",
+    cost: "~80 s",
     run,
 };
 

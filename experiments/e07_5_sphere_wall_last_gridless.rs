@@ -7,16 +7,16 @@
 //! and never resampled — shown above 07-4's wall, both with the fixed cell
 //! march. The notes: "the edges of filaments have been subtly sharpened".
 //! Measured at 50³ × 60 frames: sharpness 3.37 against 07-4's 3.32 grey
-//! levels² (+1.5 %), and mean row peak kept 0.978 against 0.976 — sharper
+//! levels² (+1.5 %), and mean row peak kept 0.977 against 0.976 — sharper
 //! by the measure, but too subtly to see side by side, even in the 2× crops.
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
 //! flow, 60 frames of Δt 0.05 after 1.5 s of warm-up, 640×480 renders; the
-//! group 07-4 … 07-7 takes about four minutes on 2 cores (1.5 min alone,
-//! the rest for the other engineers' load measured at the regeneration).
+//! group 07-4 … 07-7 took 8 minutes at the regeneration on 2 cores shared
+//! with other work (load ≈ 10), most of it the two fine marches.
 //! `--smoke`: 24³, 12 frames, 128×96 ([`crate::sphere_wall_series::figure_config`]).
 //!
-//! Run: `smokelab experiment 07-5` (about 30 s on 2 cores).
+//! Run: `smokelab experiment 07-5` (44 s at the regeneration, 2 shared cores).
 //!
 //! Writes `results/07-5/`: `figure.png` (rows: 59 gridded + 1 gridless,
 //! the figure; 60 gridded, 07-4's; full frames beside their middle halves
@@ -48,7 +48,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-5",
     reproduces: "fig 7.5",
     title: "sphere wall, all frames gridded but the last, which is gridless",
-    cost: "~30 s",
+    cost: "~45 s",
     run,
 };
 

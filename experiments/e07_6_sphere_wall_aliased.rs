@@ -23,12 +23,12 @@
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
 //! flow, 60 frames of Δt 0.05 after 1.5 s of warm-up, 640×480 renders; the
-//! group 07-4 … 07-7 takes about four minutes on 2 cores (1.5 min alone,
-//! the rest for the other engineers' load measured at the regeneration).
+//! group 07-4 … 07-7 took 8 minutes at the regeneration on 2 cores shared
+//! with other work (load ≈ 10), most of it the two fine marches.
 //! `--smoke`: 24³, 12 frames, 128×96 ([`crate::sphere_wall_series::figure_config`]).
 //!
-//! Run: `smokelab experiment 07-6` (about 1.5 min on 2 cores, most of it
-//! the fine march).
+//! Run: `smokelab experiment 07-6` (204 s at the regeneration, 2 shared
+//! cores; most of it the fine march).
 //!
 //! Writes `results/07-6/`: `figure.png` (rows: fixed step cell, the figure;
 //! jittered step cell; fixed step cell/10; full frames beside their middle
@@ -60,7 +60,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-6",
     reproduces: "fig 7.6",
     title: "sphere wall, last sixth of the frames gridless, march step = cell (aliasing)",
-    cost: "~1.5 min",
+    cost: "~3.5 min",
     run,
 };
 

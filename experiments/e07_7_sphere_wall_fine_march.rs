@@ -10,11 +10,12 @@
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
 //! flow, 60 frames of Δt 0.05 after 1.5 s of warm-up, 640×480 renders; the
-//! group 07-4 … 07-7 takes about four minutes on 2 cores (1.5 min alone,
-//! the rest for the other engineers' load measured at the regeneration).
+//! group 07-4 … 07-7 took 8 minutes at the regeneration on 2 cores shared
+//! with other work (load ≈ 10), most of it the two fine marches.
 //! `--smoke`: 24³, 12 frames, 128×96 ([`crate::sphere_wall_series::figure_config`]).
 //!
-//! Run: `smokelab experiment 07-7` (about 1.5 min on 2 cores).
+//! Run: `smokelab experiment 07-7` (163 s at the regeneration, 2 shared
+//! cores; most of it the fine march).
 //!
 //! Writes `results/07-7/`: `figure.png` (rows: fixed step cell/10, the
 //! figure; fixed step cell; full frames beside their middle halves 2×,
@@ -44,7 +45,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "07-7",
     reproduces: "fig 7.7",
     title: "sphere wall, last sixth of the frames gridless, march step = cell/10",
-    cost: "~1.5 min",
+    cost: "~2.5 min",
     run,
 };
 

@@ -55,10 +55,10 @@ pub(crate) fn config(size: Size) -> SphereWallConfig {
 }
 
 /// The wall and flow of figs 7.4–7.7 (07-4 … 07-7) at a run size: the
-/// notes' 50³ and 60 frames by default — the group's four experiments take
-/// about four minutes on 2 cores — and at `--full`; at `--smoke` 24³ and 12
-/// frames, the smallest run whose last sixth (eq 7.4's `k` = 2 frames)
-/// sharpens the wall measurably beyond the one last gridless frame of 07-5.
+/// notes' 50³ and 60 frames by default — the group's four experiments took
+/// 8 minutes at the regeneration on 2 cores shared with other work — and at
+/// `--full`; at `--smoke` 24³ and 12 frames, whose last sixth (eq 7.4's `k`)
+/// is 2 frames, not the one gridless frame of 07-5 as at 6 frames.
 pub(crate) fn figure_config(size: Size) -> SphereWallConfig {
     let (res, frames) = match size {
         Size::Smoke => (24, 12),
