@@ -12,14 +12,15 @@
 //! at every march sample of a 320×240 image, 32³ flow; `--full` 50³, 60
 //! frames, 640×480 — tens of minutes).
 //!
-//! Writes `results/07-8/`: `render.png`, `initial_final.png`, `data.csv`
+//! Writes `results/07-8/`: `render.png`, `figure.png` (the render beside its middle half 2×,
+//! labelled), `initial_final.png`, `data.csv`
 //! (as 07-4; the bytes are the `F` stored velocity grids) and
 //! `manifest.json`.
 
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{run_picture, Holding};
+use crate::sphere_wall_series::{fine_picture, run_picture, Holding};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -32,5 +33,9 @@ pub const EXPERIMENT: Experiment = Experiment {
 };
 
 fn run(ctx: &Context) -> Result<()> {
-    run_picture(ctx, Holding::Gridless { frames: usize::MAX }, 10.0)
+    let title = |f| format!("07-8 (fig 7.8): {f} frames gridless");
+    run_picture(
+        ctx,
+        fine_picture(ctx, title, Holding::Gridless { frames: usize::MAX }),
+    )
 }

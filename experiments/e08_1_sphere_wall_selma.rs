@@ -11,14 +11,15 @@
 //! Run: `smokelab experiment 08-1` (about 7 s on 2 cores: 32³, 30 frames,
 //! 320×240; `--full` 50³, 60 frames, 640×480).
 //!
-//! Writes `results/08-1/`: `render.png`, `initial_final.png`, `data.csv`
+//! Writes `results/08-1/`: `render.png`, `figure.png` (the render beside its middle half 2×,
+//! labelled), `initial_final.png`, `data.csv`
 //! (as 07-4; the bytes are the SELMA model's grids: map, scratch, tracked
 //! lattice, reference density and cell-centre cache) and `manifest.json`.
 
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{run_picture, Holding};
+use crate::sphere_wall_series::{fine_picture, run_picture, Holding};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -31,5 +32,6 @@ pub const EXPERIMENT: Experiment = Experiment {
 };
 
 fn run(ctx: &Context) -> Result<()> {
-    run_picture(ctx, Holding::Selma { factor: 1 }, 10.0)
+    let title = |f| format!("08-1 (fig 8.1): {f} frames SELMA");
+    run_picture(ctx, fine_picture(ctx, title, Holding::Selma { factor: 1 }))
 }

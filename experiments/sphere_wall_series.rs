@@ -1,14 +1,17 @@
-//! Shared by the sphere-wall experiments 07-4 … 07-8, 08-1 (one render of
-//! one holding of the wall) and 07-10, 08-2 (render time and memory against
+//! Shared by the sphere-wall experiments 07-4 … 07-8, 08-1 (pictures of
+//! holdings of the wall) and 07-10, 08-2 (render time and memory against
 //! frames): sizes, the flow, rendering, `data.csv`, and the cost plots drawn
 //! from the CSV with their fitted slopes.
 //!
-//! Sizes: `--smoke` 16³ and 6 frames at 64×48; the default 32³ and 30
-//! frames (Δt 0.1), pictures 320×240 and cost studies 160×120; `--full` the
-//! notes' 50³ and 60 frames (Δt 0.05) at 640×480. The flow covers the same simulated time at every
-//! size. "Cell" in a march step is the velocity grid's cell.
+//! Sizes of 07-4 … 07-7 ([`figure_config`]): the notes' set-up, a 50³ flow
+//! and 60 frames (Δt 0.05), at 640×480 by default and at `--full`;
+//! `--smoke` a 24³ flow and 12 frames at 128×96. Of 07-8, 08-1 and the cost
+//! studies ([`config`]): `--smoke` 16³ and 6 frames at 64×48; the default
+//! 32³ and 30 frames (Δt 0.1), pictures 320×240 and cost studies 160×120;
+//! `--full` 50³ and 60 frames at 640×480. The flow covers the same
+//! simulated time at every size. "Cell" in a march step is the velocity
+//! grid's cell.
 
-use std::io::Write;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
@@ -20,6 +23,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::growth::{self, Criteria, Trend};
 use crate::memory;
+use crate::panels;
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
 use crate::registry::{Context, Size};
 use crate::table::{read_rows, write_rows};
@@ -27,6 +31,7 @@ use smokelab::density::probe;
 use smokelab::domain::Domain;
 use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, manifest::Manifest, preview};
+use smokelab::metrics::picture;
 use smokelab::render::camera::Camera;
 use smokelab::render::output::{self, Display};
 use smokelab::render::phase::Phase;
@@ -49,6 +54,31 @@ pub(crate) fn config(size: Size) -> SphereWallConfig {
     }
 }
 
+/// The wall and flow of figs 7.4–7.7 (07-4 … 07-7) at a run size: the
+/// notes' 50³ and 60 frames by default — the group's four experiments took
+/// 8 minutes at the regeneration on 2 cores shared with other work — and at
+/// `--full`; at `--smoke` 24³ and 12 frames, whose last sixth (eq 7.4's `k`)
+/// is 2 frames, not the one gridless frame of 07-5 as at 6 frames.
+pub(crate) fn figure_config(size: Size) -> SphereWallConfig {
+    let (res, frames) = match size {
+        Size::Smoke => (24, 12),
+        Size::Default | Size::Full => (50, 60),
+    };
+    SphereWallConfig {
+        res,
+        frames,
+        ..SphereWallConfig::default()
+    }
+}
+
+/// Image size of 07-4 … 07-7.
+pub(crate) fn figure_size(size: Size) -> (u32, u32) {
+    match size {
+        Size::Smoke => (128, 96),
+        Size::Default | Size::Full => (640, 480),
+    }
+}
+
 /// What every sphere-wall experiment starts from: the run size's
 /// configuration, the recorded flow and the unadvected wall. The flow is
 /// recorded (and the configuration checked) before the output folder is
@@ -60,8 +90,13 @@ pub(crate) struct Setup {
 }
 
 impl Setup {
+    /// The set-up of [`config`] at the run size.
     pub fn new(ctx: &Context) -> Result<Self> {
-        let config = config(ctx.size);
+        Self::of(ctx, config(ctx.size))
+    }
+
+    /// The set-up of `config`.
+    pub fn of(ctx: &Context, config: SphereWallConfig) -> Result<Self> {
         let flow = FlowHistory::record(&config)?;
         io::create_output_dir(&ctx.out)?;
         let wall = Wall::new(&config);
@@ -88,7 +123,7 @@ pub(crate) fn study_size(size: Size) -> (u32, u32) {
 }
 
 /// How one picture holds the wall over the `F` recorded frames.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub(crate) enum Holding {
     /// Gridded for `F − k` frames, then `k` gridless (eqs 7.1–7.4).
@@ -175,11 +210,52 @@ fn wall_scene(state: &AdvectedWall, bounds: Domain) -> Scene {
     }
 }
 
-/// Render the wall with march step `cell / march_div`.
+/// How the camera rays are marched: step `Δs = cell / div`, one sub-step
+/// sampled at a uniformly random point inside it (`jitter`, the stratified
+/// form of eq A.29) or at its midpoint (a fixed step, the same sample
+/// positions along every ray from its box entry).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub(crate) struct March {
+    /// Velocity cells per march step.
+    pub div: f32,
+    /// Jittered sample positions.
+    pub jitter: bool,
+}
+
+impl March {
+    /// The notes' coarse march of figs 7.4–7.6: one cell, fixed.
+    pub const CELL: March = March {
+        div: 1.0,
+        jitter: false,
+    };
+    /// The notes' fine march of fig 7.7: a tenth of a cell, fixed.
+    pub const FINE: March = March {
+        div: 10.0,
+        jitter: false,
+    };
+
+    /// A jittered march of step `cell / div` (the cost studies, 07-8, 08-1).
+    pub const fn jittered(div: f32) -> Self {
+        Self { div, jitter: true }
+    }
+
+    /// "fixed step cell/10", "jittered step cell" and the like.
+    pub fn label(self) -> String {
+        let step = if self.div == 1.0 {
+            "cell".to_string()
+        } else {
+            format!("cell/{}", self.div)
+        };
+        let kind = if self.jitter { "jittered" } else { "fixed" };
+        format!("{kind} step {step}")
+    }
+}
+
+/// Render the wall with `march`.
 pub(crate) fn render_wall(
     state: &AdvectedWall,
     flow: &FlowHistory,
-    march_div: f32,
+    march: March,
     (width, height): (u32, u32),
 ) -> Result<(RgbImage, RenderStats)> {
     let d = flow.domain;
@@ -193,7 +269,8 @@ pub(crate) fn render_wall(
         [18, 18, 6],
     )?;
     let settings = RenderSettings {
-        step: Some(d.cell / march_div),
+        step: Some(d.cell / march.div),
+        jitter: march.jitter,
         ..RenderSettings::new(Camera::framing(&view, width, height, 0.95))
     };
     let r = render(&scene, &settings)?;
@@ -220,70 +297,266 @@ fn measure(state: &AdvectedWall, flow: &FlowHistory) -> (f64, f64) {
 /// Refinement of the quadrature of the analytic wall's `∫ρ₀ dV`.
 const EXACT_REFINE: usize = 8;
 
-/// The one-picture experiments: run the flow, hold the wall as `holding`,
-/// render it with march step `cell / march_div`, and write `render.png`,
-/// `initial_final.png` (fig 7.3 beside the result), `data.csv` and
-/// `manifest.json`. `data.csv` has one row: frames gridded and gridless,
-/// SELMA map cells, march step, render seconds and samples, density bytes,
-/// `mass_kept` (`∫ρ_F / ∫ρ₀`, both at 2× sampling, `ρ₀` the analytic wall),
-/// `peak_kept` (the same of the mean row peak), and for gridded holdings the
-/// two factors of the gridded part's mass, `mass_sampled` (the rows sampled
-/// at the cell centres, `Σ ρ Δx³`, over `∫ρ₀` at [`EXACT_REFINE`]×) and
-/// `mass_advected` (`Σ ρ Δx³` after the gridded frames over that at frame 0;
-/// both `NaN` without gridded frames), and the setup seconds.
-pub(crate) fn run_picture(ctx: &Context, holding: Holding, march_div: f32) -> Result<()> {
+/// One panel of a picture experiment: a holding of the wall rendered with a
+/// march, named by what sets it apart from the other panels.
+pub(crate) struct Panel {
+    /// Row name in the figure and `panel` in `data.csv` (no commas).
+    pub name: String,
+    /// How the wall is held over the frames.
+    pub holding: Holding,
+    /// How its render is marched.
+    pub march: March,
+}
+
+impl Panel {
+    /// A panel named by its march (the panels differ in march only).
+    pub fn marched(holding: Holding, march: March) -> Self {
+        Self {
+            name: march.label(),
+            holding,
+            march,
+        }
+    }
+}
+
+/// A picture experiment: the wall and flow, the image size, and the panels,
+/// the first of which is the experiment's own figure.
+pub(crate) struct Picture {
+    /// What all panels share, printed over the figure (the frame and its
+    /// time are added).
+    pub title: String,
+    /// The wall and flow.
+    pub config: SphereWallConfig,
+    /// Image size of each render.
+    pub size: (u32, u32),
+    /// The renders, the experiment's own first.
+    pub panels: Vec<Panel>,
+}
+
+/// The picture of 07-8 and 08-1 at the sizes of [`config`]: `holding` alone,
+/// marched with a jittered tenth of a cell; `title` of the frame count.
+pub(crate) fn fine_picture(
+    ctx: &Context,
+    title: impl Fn(usize) -> String,
+    holding: Holding,
+) -> Picture {
+    let config = config(ctx.size);
+    Picture {
+        title: title(config.frames),
+        config,
+        size: picture_size(ctx.size),
+        panels: vec![Panel::marched(holding, March::jittered(10.0))],
+    }
+}
+
+/// Zoom of the crops beside each full frame: the middle half of the
+/// picture, where the two plumes meet and fold the rows, 2× enlarged.
+const ZOOM: u32 = 2;
+
+/// A row of a picture experiment's `data.csv`: one panel.
+#[derive(Serialize)]
+struct PanelRow {
+    /// The panel's name.
+    panel: String,
+    gridded_frames: usize,
+    gridless_frames: usize,
+    selma_map_res: usize,
+    /// Δs in length units.
+    march_step: f32,
+    jitter: bool,
+    render_seconds: f64,
+    samples: u64,
+    density_bytes: usize,
+    /// `∫ρ_F / ∫ρ₀`, both at 2× sampling, `ρ₀` the analytic wall.
+    mass_kept: f64,
+    /// The same of the mean row peak.
+    peak_kept: f64,
+    /// Gridded holdings: the rows sampled at the cell centres, `Σ ρ Δx³`,
+    /// over `∫ρ₀` at [`EXACT_REFINE`]× (`NaN` without gridded frames).
+    mass_sampled: f64,
+    /// Gridded holdings: `Σ ρ Δx³` after the gridded frames over that at
+    /// frame 0 (`NaN` without gridded frames).
+    mass_advected: f64,
+    /// Seconds building the holding.
+    setup_seconds: f64,
+    /// Gradient energy of the picture, grey levels² per pixel
+    /// ([`picture::gradient_energy`]).
+    sharpness: f64,
+    /// Against the panel of the same holding marched with [`March::FINE`]
+    /// (`NaN` where there is none, and for that panel itself): rms error,
+    /// grey levels ([`picture::error_spread`]).
+    error_rms: f64,
+    /// The rms of the error's part coherent between neighbouring pixels.
+    coherent_error: f64,
+    /// The share of the error's energy that is coherent.
+    coherent_share: f64,
+}
+
+/// What a holding is and keeps, the same in every panel that shows it:
+/// the holding's columns of [`PanelRow`].
+#[derive(Clone, Copy)]
+struct HoldingMeasures {
+    gridded_frames: usize,
+    gridless_frames: usize,
+    selma_map_res: usize,
+    density_bytes: usize,
+    mass_kept: f64,
+    peak_kept: f64,
+    mass_sampled: f64,
+    mass_advected: f64,
+    setup_seconds: f64,
+}
+
+/// A holding built once for every panel that shows it.
+struct Built {
+    holding: Holding,
+    state: AdvectedWall,
+    measures: HoldingMeasures,
+}
+
+/// The picture experiments: run the flow, build each panel's holding (once
+/// per holding), render it with the panel's march, and write
+///
+/// - `render.png`: the first panel, the experiment's figure;
+/// - `figure.png`: every panel as a row, full frame and its middle
+///   [`ZOOM`]× enlarged side by side, labelled in the pixels (the panel,
+///   the frame and its time, the march);
+/// - `initial_final.png`: fig 7.3 (frame 0, the analytic wall, marched at
+///   a jittered cell/10) beside the first panel, labelled;
+/// - `data.csv`: a [`PanelRow`] per panel — frames gridded and gridless,
+///   SELMA map cells, march step and jitter, render seconds and samples,
+///   density bytes, mass and peak kept, the gridded part's mass factors,
+///   the picture's sharpness and its error against the fine fixed march of
+///   the same holding, in whole and coherent;
+/// - `manifest.json`.
+pub(crate) fn run_picture(ctx: &Context, pic: Picture) -> Result<()> {
     let start = Instant::now();
-    let (w, h) = picture_size(ctx.size);
-    let Setup { config, flow, wall } = Setup::new(ctx)?;
+    let Setup { config, flow, wall } = Setup::of(ctx, pic.config)?;
     let f = flow.frames();
     let initial = AdvectedWall::gridless(&wall, None, &flow, 0)?;
-    let t = Instant::now();
-    let (state, grid_mass) = holding.advect(&wall, &flow)?;
-    let setup_seconds = t.elapsed().as_secs_f64();
-    let (img, stats) = render_wall(&state, &flow, march_div, (w, h))?;
-    let (img0, _) = render_wall(&initial, &flow, 10.0, (w, h))?;
-    io::write_png(&ctx.out.join("render.png"), &img)?;
-    io::write_png(
-        &ctx.out.join("initial_final.png"),
-        &preview::side_by_side(&[img0, img], 6),
-    )?;
-    let (gridded, gridless, map) = match holding {
-        Holding::Gridless { frames } => (f - frames.min(f), frames.min(f), 0),
-        Holding::Selma { factor } => (0, 0, factor * config.res),
-    };
     let (m0, p0) = measure(&initial, &flow);
-    let (m, p) = measure(&state, &flow);
-    let (mass_kept, peak_kept) = (m / m0, p / p0);
     let exact: f64 = wall
         .rows
         .iter()
         .map(|r| probe::integral(&**r, &flow.domain, EXACT_REFINE))
         .sum();
-    let [mass_sampled, mass_advected] =
-        grid_mass.map_or([f64::NAN; 2], |[m0, mf]| [m0 / exact, mf / m0]);
-    let csv = format!(
-        "gridded_frames,gridless_frames,selma_map_res,march_step,render_seconds,samples,density_bytes,mass_kept,peak_kept,mass_sampled,mass_advected,setup_seconds\n\
-         {gridded},{gridless},{map},{},{},{},{},{mass_kept},{peak_kept},{mass_sampled},{mass_advected},{setup_seconds}\n",
-        stats.step,
-        stats.seconds,
-        stats.samples,
-        state.bytes(),
-    );
-    io::write_atomic(&ctx.out.join("data.csv"), |wr| {
-        Ok(wr.write_all(csv.as_bytes())?)
-    })?;
+    let mut built: Vec<Built> = vec![];
+    let mut renders = vec![];
+    for panel in &pic.panels {
+        let i = match built.iter().position(|b| b.holding == panel.holding) {
+            Some(i) => i,
+            None => {
+                let t = Instant::now();
+                let (state, grid_mass) = panel.holding.advect(&wall, &flow)?;
+                let setup_seconds = t.elapsed().as_secs_f64();
+                let (gridded_frames, gridless_frames, selma_map_res) = match panel.holding {
+                    Holding::Gridless { frames } => (f - frames.min(f), frames.min(f), 0),
+                    Holding::Selma { factor } => (0, 0, factor * config.res),
+                };
+                let (m, p) = measure(&state, &flow);
+                let [mass_sampled, mass_advected] =
+                    grid_mass.map_or([f64::NAN; 2], |[m0, mf]| [m0 / exact, mf / m0]);
+                let measures = HoldingMeasures {
+                    gridded_frames,
+                    gridless_frames,
+                    selma_map_res,
+                    density_bytes: state.bytes(),
+                    mass_kept: m / m0,
+                    peak_kept: p / p0,
+                    mass_sampled,
+                    mass_advected,
+                    setup_seconds,
+                };
+                built.push(Built {
+                    holding: panel.holding,
+                    state,
+                    measures,
+                });
+                built.len() - 1
+            }
+        };
+        let (img, stats) = render_wall(&built[i].state, &flow, panel.march, pic.size)?;
+        renders.push((i, img, stats));
+    }
+    let mut rows = vec![];
+    for ((i, img, stats), panel) in renders.iter().zip(&pic.panels) {
+        let reference = renders
+            .iter()
+            .zip(&pic.panels)
+            .find(|((j, ..), p)| j == i && p.march == March::FINE && p.march != panel.march);
+        let spread = match reference {
+            Some(((_, r, _), _)) => Some(picture::error_spread(img, r)?),
+            None => None,
+        };
+        let m = built[*i].measures;
+        rows.push(PanelRow {
+            panel: panel.name.clone(),
+            gridded_frames: m.gridded_frames,
+            gridless_frames: m.gridless_frames,
+            selma_map_res: m.selma_map_res,
+            march_step: stats.step,
+            jitter: panel.march.jitter,
+            render_seconds: stats.seconds,
+            samples: stats.samples,
+            density_bytes: m.density_bytes,
+            mass_kept: m.mass_kept,
+            peak_kept: m.peak_kept,
+            mass_sampled: m.mass_sampled,
+            mass_advected: m.mass_advected,
+            setup_seconds: m.setup_seconds,
+            sharpness: picture::gradient_energy(img),
+            error_rms: spread.map_or(f64::NAN, |s| s.rms),
+            coherent_error: spread.map_or(f64::NAN, |s| s.coherent),
+            coherent_share: spread.map_or(f64::NAN, |s| s.coherent_share),
+        });
+    }
+    let time = |frame: usize| format!("frame {frame}, t = {:.2} s", frame as f32 * flow.dt);
+    let title = format!("{} · {} · {}³ flow", pic.title, time(f), config.res);
+    let names: Vec<String> = pic.panels.iter().map(|p| p.name.clone()).collect();
+    let (w, h) = pic.size;
+    let columns = [
+        format!("full frame {w}×{h}"),
+        format!("crop {ZOOM}× (middle 1/{ZOOM})"),
+    ];
+    let grid: Vec<Vec<RgbImage>> = renders
+        .iter()
+        .map(|(_, img, _)| vec![img.clone(), preview::zoom_centre(img, ZOOM)])
+        .collect();
+    let figure = panels::grid(
+        &grid,
+        6,
+        &panels::Labels {
+            title: &title,
+            rows: &names,
+            columns: &columns,
+        },
+    )?;
+    io::write_png(&ctx.out.join("figure.png"), &figure)?;
+    let first = &renders[0].1;
+    io::write_png(&ctx.out.join("render.png"), first)?;
+    let (img0, _) = render_wall(&initial, &flow, March::jittered(10.0), pic.size)?;
+    let headings = [
+        format!("{} · fig 7.3", time(0)),
+        format!("{} · {}", time(f), names[0]),
+    ];
+    io::write_png(
+        &ctx.out.join("initial_final.png"),
+        &panels::row(&[img0, first.clone()], 6, &pic.title, &headings)?,
+    )?;
+    write_rows(&ctx.out.join("data.csv"), &rows)?;
+    let holdings: Vec<&Holding> = built.iter().map(|b| &b.holding).collect();
+    let marches: Vec<March> = pic.panels.iter().map(|p| p.march).collect();
     let extra = serde_json::json!({
-        "holding": holding,
+        "title": pic.title,
+        "panels": names,
+        "holdings": holdings,
+        "marches": marches,
+        "image": pic.size,
         "frames": f,
         "dt": flow.dt,
         "max_speed": flow.max_speed(),
-        "render": stats,
-        "density_bytes": state.bytes(),
-        "mass_kept": mass_kept,
-        "peak_kept": peak_kept,
-        "mass_sampled": mass_sampled,
-        "mass_advected": mass_advected,
-        "setup_seconds": setup_seconds,
+        "renders": renders.iter().map(|r| r.2).collect::<Vec<_>>(),
+        "rows": rows,
     });
     io::write_json(
         &ctx.out.join("manifest.json"),
@@ -314,10 +587,10 @@ pub(crate) fn fastest_render(
     march_div: f32,
     size: (u32, u32),
 ) -> Result<(RgbImage, RenderStats, u64)> {
-    let (img, mut stats) = render_wall(state, flow, march_div, size)?;
+    let (img, mut stats) = render_wall(state, flow, March::jittered(march_div), size)?;
     let walk_steps = state.walk_steps();
     for _ in 1..RENDER_REPEATS {
-        let (_, again) = render_wall(state, flow, march_div, size)?;
+        let (_, again) = render_wall(state, flow, March::jittered(march_div), size)?;
         stats.seconds = stats.seconds.min(again.seconds);
     }
     let seconds = stats.seconds.max(1e-12);
@@ -393,7 +666,7 @@ impl CostRow {
         march_div: f32,
         size: (u32, u32),
     ) -> Result<()> {
-        let (_, stats) = render_wall(state, flow, march_div, size)?;
+        let (_, stats) = render_wall(state, flow, March::jittered(march_div), size)?;
         self.render_seconds = self.render_seconds.min(stats.seconds);
         Ok(())
     }
@@ -404,7 +677,7 @@ impl CostRow {
 /// otherwise be measured in the first point of a cost study (at smoke size
 /// 1 MiB of RSS for the first render, 75 kB of heap for the first SELMA one).
 pub(crate) fn warm_up(state: &AdvectedWall, flow: &FlowHistory, size: (u32, u32)) -> Result<()> {
-    render_wall(state, flow, 1.0, size)?;
+    render_wall(state, flow, March::jittered(1.0), size)?;
     Ok(())
 }
 

@@ -1,8 +1,10 @@
 //! Diagnostics computed on grids: divergence, mirror symmetry of densities
 //! and velocity, the divergence tracers feel ([`interpolant`]) and where the
-//! energy sits in wavenumber ([`spectrum`]).
+//! energy sits in wavenumber ([`spectrum`]); and of rendered pictures, their
+//! sharpness and the spread of their error ([`picture`]).
 
 pub mod interpolant;
+pub mod picture;
 pub mod spectrum;
 
 use rayon::prelude::*;
