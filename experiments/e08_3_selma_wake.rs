@@ -256,26 +256,22 @@ fn run(ctx: &Context) -> Result<()> {
         vorticity_slices.push(vorticity_slice(&lab(vorticity_z(&sim), tau), &view, pixels));
     }
     let headings: Vec<String> = SHOWN.iter().map(|t| format!("t = {t} D/U")).collect();
-    io::write_png(
+    panels::save_row(
         &ctx.out.join("wake.png"),
-        &panels::row(
-            &renders,
-            6,
-            "render, still-air frame: sphere (orange) flies right to left",
-            &headings,
-        )?,
+        &renders,
+        6,
+        "render, still-air frame: sphere (orange) flies right to left",
+        &headings,
     )?;
-    io::write_png(
+    panels::save(
         &ctx.out.join("slice.png"),
-        &panels::grid(
-            &[density_slices, vorticity_slices],
-            6,
-            &panels::Labels {
-                title: "mid-plane through the flight path, still-air frame",
-                rows: &["density".into(), "vorticity ω_z".into()],
-                columns: &headings,
-            },
-        )?,
+        &[density_slices, vorticity_slices],
+        6,
+        &panels::Labels {
+            title: "mid-plane through the flight path, still-air frame",
+            rows: &["density".into(), "vorticity ω_z".into()],
+            columns: &headings,
+        },
     )?;
     io::write_png(&ctx.out.join("flow.png"), &flow)?;
     write_rows(&ctx.out.join("data.csv"), &rows)?;

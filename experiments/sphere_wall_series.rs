@@ -522,7 +522,8 @@ pub(crate) fn run_picture(ctx: &Context, pic: Picture) -> Result<()> {
         .iter()
         .map(|(_, img, _)| vec![img.clone(), preview::zoom_centre(img, ZOOM)])
         .collect();
-    let figure = panels::grid(
+    panels::save(
+        &ctx.out.join("figure.png"),
         &grid,
         6,
         &panels::Labels {
@@ -531,7 +532,6 @@ pub(crate) fn run_picture(ctx: &Context, pic: Picture) -> Result<()> {
             columns: &columns,
         },
     )?;
-    io::write_png(&ctx.out.join("figure.png"), &figure)?;
     let first = &renders[0].1;
     io::write_png(&ctx.out.join("render.png"), first)?;
     let (img0, _) = render_wall(&initial, &flow, March::jittered(10.0), pic.size)?;
@@ -539,9 +539,12 @@ pub(crate) fn run_picture(ctx: &Context, pic: Picture) -> Result<()> {
         format!("{} · fig 7.3", time(0)),
         format!("{} · {}", time(f), names[0]),
     ];
-    io::write_png(
+    panels::save_row(
         &ctx.out.join("initial_final.png"),
-        &panels::row(&[img0, first.clone()], 6, &pic.title, &headings)?,
+        &[img0, first.clone()],
+        6,
+        &pic.title,
+        &headings,
     )?;
     write_rows(&ctx.out.join("data.csv"), &rows)?;
     let holdings: Vec<&Holding> = built.iter().map(|b| &b.holding).collect();
