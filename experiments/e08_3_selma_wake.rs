@@ -11,7 +11,8 @@
 //! past a fixed obstacle in a periodic 10 × 4 × 4 box, inviscid, exact
 //! obstacles with the reflecting rule (free slip) — and is warmed up for 2
 //! time units so the wake exists before the cloud arrives. The
-//! cloud is the three-layer billowed cloud of 03-4 (ch. 3), placed upstream;
+//! cloud is a three-layer billowed cloud of ch. 3 on three merged spheres
+//! (billow 1, `Q` = 0.1 for every layer; `shot_cloud`), placed upstream;
 //! its density is `ρ₀ ∘ X` with `X` SELMA's backward map on a map grid twice
 //! as fine as the velocity, never re-anchored (no sources, so the cloud
 //! stays procedural: eq 8.3). Renders are in the still air's frame
@@ -51,7 +52,7 @@ use glam::Vec3;
 use image::RgbImage;
 use serde::Serialize;
 
-use crate::e03_4_billow::billowed;
+use crate::cloud_figures::{cloud, layers, SCALE};
 use crate::model_render::{by_size, render_densities};
 use crate::registry::{Context, Experiment};
 use crate::table::write_rows;
@@ -61,11 +62,13 @@ use smokelab::boundary::{
 };
 use smokelab::density::{DensityMode, DensityModel, DensityOptions};
 use smokelab::domain::Domain;
-use smokelab::field::algebra::{compose, dot};
+use smokelab::field::algebra::{compose, dot, max};
 use smokelab::field::ops::{self, constant, constant_vector, identity, vector_sum};
 use smokelab::field::{Scalar, Vector};
 use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, manifest::Manifest, preview};
+use smokelab::model::cloud::billow;
+use smokelab::model::shape;
 use smokelab::simulation::{Gas, MassBudget, Simulation, StepParams};
 
 /// Registry entry.
@@ -122,11 +125,23 @@ struct Row {
     disturbance_far: f64,
 }
 
+/// The cloud of this shot on `grid` cells: three merged spheres (their
+/// signed distances' `max`) under the three layers of ch. 3 cleared by eq
+/// 3.8 with billow 1 and a fixed `Q` of half the first layer's amplitude.
+fn shot_cloud(grid: usize) -> Result<Scalar> {
+    let a = shape::sphere(Vec3::new(-0.3, -0.1, 0.0), 0.45);
+    let b = shape::sphere(Vec3::new(0.25, -0.15, 0.1), 0.4);
+    let c = shape::sphere(Vec3::new(0.0, 0.25, -0.05), 0.38);
+    let q = [0.5 * SCALE; 2];
+    let cleared = billow(&layers(3, constant(SCALE)), &q, constant(1.0))?;
+    cloud(max(max(a, b), c), &cleared, 0, grid)
+}
+
 fn run(ctx: &Context) -> Result<()> {
     let (n, pixels) = by_size(ctx.size, [(16, 64), (32, 256), (64, 512)]);
     let start = Instant::now();
     io::create_output_dir(&ctx.out)?;
-    let cloud0 = translated(ops::mask(billowed(1.0, 2 * n)?), CLOUD);
+    let cloud0 = translated(ops::mask(shot_cloud(2 * n)?), CLOUD);
     // The cloud's box, extended 1.5 along the flight so the gas dragged
     // along the path stays in view.
     let view = Domain::new(
