@@ -93,13 +93,13 @@ fn run(ctx: &Context) -> Result<()> {
     let panels = vec![
         Panel {
             label: "controlled".into(),
-            heading: "amplitude 0 → 0.2 along x, roughness 0.3 → 0.7 along y".into(),
+            heading: "ramped".into(),
             level_set: cloud(bunny.clone(), &controlled, 0, grid)?,
             density: None,
         },
         Panel {
             label: "uniform".into(),
-            heading: "uniform: amplitude 0.2, roughness 0.5".into(),
+            heading: "uniform".into(),
             level_set: cloud(bunny, &uniform, 0, grid)?,
             density: None,
         },
