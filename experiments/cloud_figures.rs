@@ -1,13 +1,15 @@
 //! What the cloud experiments of chapter 3 (03-3 … 03-8) share: the base
 //! shape, the displacement layers, `cumulo` with a cache per layer, and a
-//! row of rendered panels written with its meshes, table and manifest.
+//! row of rendered, labelled panels written with their meshes and manifest.
 //!
-//! The base is a signed-distance cloud of three overlapping spheres (their
-//! union, `max`), standing in for the notes' bunny; a user's own shape
-//! enters the same way through `model::mesh::MeshDistance`. Layers follow
-//! the `NoiseLayers` script (eq 3.7): Perlin noise, frequency 2, jump 2.2,
-//! roughness 0.5, first amplitude 0.2. Layer `i` is cached on a box of
-//! `grid · (1 + i/2)` cells per axis (§3.3.3), each finer than the last.
+//! The base is the notes' Stanford bunny (`assets/bunny.obj`, see
+//! `assets/README.md`): its signed distance (`model::mesh::MeshDistance`,
+//! closest triangle with a winding-number sign) centred in the box, scaled
+//! to [`BASE_WIDTH`] along its widest axis and cached on the base grid.
+//! Layers follow the `NoiseLayers` script (eq 3.7): Perlin noise,
+//! frequency 2, jump 2.2, roughness 0.5, first amplitude 0.2. Layer `i` is
+//! cached on a box of `grid · (1 + i/2)` cells per axis (§3.3.3), each
+//! finer than the last.
 
 use std::time::Instant;
 
@@ -15,32 +17,44 @@ use anyhow::Result;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::model_render::render_densities;
-use crate::registry::Context;
-use crate::table::write_rows;
+use crate::model_render::render_framed;
+use crate::panels;
 use smokelab::domain::Domain;
-use smokelab::field::algebra::max;
 use smokelab::field::ops::{self, constant};
 use smokelab::field::Scalar;
+use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, manifest::Manifest};
+use smokelab::model::cache;
 use smokelab::model::cloud::{cumulo, noise_layers};
-use smokelab::model::mesh::Mesh;
-use smokelab::model::shape;
+use smokelab::model::mesh::{Mesh, MeshDistance};
 use smokelab::noise::perlin::Perlin;
 
 /// Half-width of the modelling box `[−W, W]³`.
 pub(crate) const W: f32 = 1.1;
 /// Amplitude of the first layer.
 pub(crate) const SCALE: f32 = 0.2;
+/// Width of the base along its widest axis (that of the three-sphere
+/// stand-in it replaced), leaving room in the box for the displacement.
+pub(crate) const BASE_WIDTH: f32 = 1.4;
 /// Steps of eq 3.3 per layer.
 const ITERATIONS: usize = 3;
+/// The Stanford bunny as OBJ text.
+static BUNNY: &[u8] = include_bytes!("assets/bunny.obj");
 
-/// The base cloud: the union of three spheres' signed distances.
-pub(crate) fn base() -> Scalar {
-    let a = shape::sphere(Vec3::new(-0.3, -0.1, 0.0), 0.45);
-    let b = shape::sphere(Vec3::new(0.25, -0.15, 0.1), 0.4);
-    let c = shape::sphere(Vec3::new(0.0, 0.25, -0.05), 0.38);
-    max(max(a, b), c)
+/// The base cloud: the bunny's signed distance, centred, scaled to
+/// [`BASE_WIDTH`] and cached on `domain(grid)` (each query of the mesh
+/// distance visits every triangle).
+pub(crate) fn base(grid: usize) -> Result<Scalar> {
+    let mut mesh = Mesh::parse_obj(BUNNY, "assets/bunny.obj")?;
+    let (lo, hi) = mesh.vertices.iter().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), &v| (lo.min(v), hi.max(v)),
+    );
+    let (centre, scale) = (0.5 * (lo + hi), BASE_WIDTH / (hi - lo).max_element());
+    for v in &mut mesh.vertices {
+        *v = (*v - centre) * scale;
+    }
+    Ok(cache(&MeshDistance::new(mesh), domain(grid)?))
 }
 
 /// `count` layers of the `NoiseLayers` script with constant parameters,
@@ -65,33 +79,28 @@ pub(crate) fn domain(res: usize) -> Result<Domain> {
     )?)
 }
 
-/// `cumulo` of the base with `layers`, the level set after layer `i` cached
-/// on `grid · (1 + i/2)` cells (eq 3.5, §3.3.3); the gradient of each
-/// cached layer is differenced with half a cell of the previous cache.
-pub(crate) fn cloud(layers: &[Scalar], grid: usize) -> Result<Scalar> {
-    let doms = (0..layers.len())
+/// `cumulo` of `start` with `layers` (eq 3.5), where `start` already
+/// carries the first `done` layers: the level set after layer `i` (counted
+/// from the base) is cached on `grid · (1 + i/2)` cells (§3.3.3); the
+/// gradient of each cached layer is differenced with half a base cell.
+pub(crate) fn cloud(start: Scalar, layers: &[Scalar], done: usize, grid: usize) -> Result<Scalar> {
+    let doms = (done..done + layers.len())
         .map(|i| domain(grid + grid * i / 2))
         .collect::<Result<Vec<_>>>()?;
     let h = 0.5 * domain(grid)?.cell;
-    Ok(cumulo(base(), layers, h, ITERATIONS, &doms)?)
+    Ok(cumulo(start, layers, h, ITERATIONS, &doms)?)
 }
 
 /// One panel of a figure.
 pub(crate) struct Panel {
     /// Label (file names, table).
     pub label: String,
+    /// Heading drawn over the panel ("billow = 0.33").
+    pub heading: String,
     /// The level set; its density is `mask(ℓ)` (eq 3.1).
     pub level_set: Scalar,
     /// A density to render instead of `mask(ℓ)` (advected clouds).
     pub density: Option<Scalar>,
-}
-
-/// One row of `data.csv`.
-#[derive(Serialize)]
-struct Row {
-    panel: String,
-    volume: f64,
-    triangles: usize,
 }
 
 /// How panels are shown.
@@ -104,51 +113,128 @@ pub(crate) enum Look {
     Volume,
 }
 
-/// Render `panels` side by side into `<out>/<image>` with `look`, write the
-/// volume and triangle count per panel in `data.csv`, and the manifest with
-/// `config`.
+/// What [`write_panels`] measured of one panel.
+pub(crate) struct Shown {
+    /// `∫ρ` on the base grid.
+    pub volume: f64,
+    /// The surface-net mesh of the level set on the base grid.
+    pub mesh: Mesh,
+}
+
+/// Render `panels` side by side into `<out>/<image>` with `look`, each
+/// headed by its `heading` and the figure by `title`, all framed by one
+/// camera on the box that holds every panel's density; write each
+/// panel's mesh as `<label>.obj` for the geometry look. Returns what was
+/// measured per panel, for the experiment's `data.csv`.
 pub(crate) fn write_panels(
-    ctx: &Context,
-    config: impl Serialize,
+    ctx: &crate::registry::Context,
     panels: Vec<Panel>,
     (grid, pixels): (usize, u32),
     look: Look,
-    image: &str,
-) -> Result<()> {
-    let (kappa, meshes) = match look {
-        Look::Geometry => (60.0, true),
-        Look::Volume => (6.0, false),
+    (title, image): (&str, &str),
+) -> Result<Vec<Shown>> {
+    let kappa = match look {
+        Look::Geometry => 60.0,
+        Look::Volume => 6.0,
     };
-    let start = Instant::now();
     let dom = domain(grid)?;
+    let densities: Vec<Scalar> = panels
+        .iter()
+        .map(|p| {
+            p.density
+                .clone()
+                .unwrap_or_else(|| ops::mask(p.level_set.clone()))
+        })
+        .collect();
+    let grids: Vec<ScalarGrid> = densities
+        .iter()
+        .map(|d| ScalarGrid::from_field(dom, &**d))
+        .collect();
+    let frame = occupied(&grids, dom)?;
     let mut images = Vec::new();
-    let mut rows = Vec::new();
-    for p in panels {
-        let density = p.density.unwrap_or_else(|| ops::mask(p.level_set.clone()));
-        let volume = smokelab::grid::ScalarGrid::from_field(dom, &*density).total();
-        let triangles = if meshes {
-            let mesh = Mesh::from_level_set(&*p.level_set, dom);
+    let mut shown = Vec::new();
+    for ((p, density), g) in panels.iter().zip(densities).zip(&grids) {
+        let mesh = Mesh::from_level_set(&*p.level_set, dom);
+        if look == Look::Geometry {
             mesh.write_obj(&ctx.out.join(format!("{}.obj", p.label)))?;
-            mesh.triangles.len()
-        } else {
-            0
-        };
-        rows.push(Row {
-            panel: p.label.clone(),
-            volume,
-            triangles,
+        }
+        shown.push(Shown {
+            volume: g.total(),
+            mesh,
         });
         let color = Vec3::new(0.92, 0.93, 0.95);
-        images.push(render_densities(
-            vec![(p.label, density, color)],
-            dom,
+        images.push(render_framed(
+            vec![(p.label.clone(), density, color)],
+            (dom, frame),
             pixels,
             0.5,
             kappa,
         )?);
     }
-    io::write_png(&ctx.out.join(image), &io::preview::side_by_side(&images, 6))?;
-    write_rows(&ctx.out.join("data.csv"), &rows)?;
+    let headings: Vec<String> = panels.iter().map(|p| p.heading.clone()).collect();
+    io::write_png(
+        &ctx.out.join(image),
+        &panels::row(&images, 6, title, &headings)?,
+    )?;
+    Ok(shown)
+}
+
+/// The smallest box of whole cells of `dom` holding every positive cell of
+/// `grids`.
+///
+/// # Errors
+/// If every grid is empty (nothing to frame).
+fn occupied(grids: &[ScalarGrid], dom: Domain) -> Result<Domain> {
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for g in grids {
+        for ((k, j, i), &v) in g.data().indexed_iter() {
+            if v > 0.0 {
+                for (a, c) in [i, j, k].into_iter().enumerate() {
+                    lo[a] = lo[a].min(c);
+                    hi[a] = hi[a].max(c + 1);
+                }
+            }
+        }
+    }
+    anyhow::ensure!(lo[0] < hi[0], "nothing to frame: every panel is empty");
+    let origin = dom.origin + dom.cell * Vec3::new(lo[0] as f32, lo[1] as f32, lo[2] as f32);
+    Ok(Domain::new(
+        origin,
+        dom.cell,
+        [0, 1, 2].map(|a| hi[a] - lo[a]),
+    )?)
+}
+
+/// The `data.csv` row of a panel that measures only what every panel has.
+#[derive(Serialize)]
+pub(crate) struct PanelRow {
+    panel: String,
+    volume: f64,
+    triangles: usize,
+}
+
+/// One [`PanelRow`] per panel, from its `label` and what was `shown`.
+pub(crate) fn panel_rows(labels: Vec<String>, shown: Vec<Shown>) -> Vec<PanelRow> {
+    labels
+        .into_iter()
+        .zip(shown)
+        .map(|(panel, s)| PanelRow {
+            panel,
+            volume: s.volume,
+            triangles: s.mesh.triangles.len(),
+        })
+        .collect()
+}
+
+/// Write `rows` as `<out>/data.csv` and the manifest with `config`, for a
+/// run started at `start`.
+pub(crate) fn write_table(
+    ctx: &crate::registry::Context,
+    config: impl Serialize,
+    rows: &[impl Serialize],
+    start: Instant,
+) -> Result<()> {
+    crate::table::write_rows(&ctx.out.join("data.csv"), rows)?;
     io::write_json(
         &ctx.out.join("manifest.json"),
         &Manifest::new(

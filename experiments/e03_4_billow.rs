@@ -1,30 +1,43 @@
 //! # 03-4 and 03-5 — clearing the canyons with `billow` (figs 3.4, 3.5)
 //!
 //! Reproduces the notes' figures 3.4 (geometry) and 3.5 (volume renders),
-//! §3.4: the three-layer cloud of 03-3 with every layer after the first
-//! cleared by eq 3.8, `N_i^c = N_i · clamp(|N_{i−1}^c| / Q, 0, 1)^billow`,
-//! for billow = 0.33, 0.5, 0.67, 1, 2 and `Q` half the first layer's
-//! amplitude. Larger billow clears the finer layers from the valleys of
-//! the coarser ones, leaving them only on the peaks.
+//! §3.4: the three-layer bunny cloud of 03-3 with every layer after the
+//! first cleared by eq 3.8, `N_i^c = N_i · clamp(|N_{i−1}^c| / Q_i, 0, 1)^billow`,
+//! for billow = 0.33, 0.5, 0.67, 1, 2. The notes' `Q = 1` is for
+//! unit-amplitude noise; ours sets `Q_i` against the previous cleared
+//! layer's amplitude, its 99th percentile over the bunny's surface
+//! ([`QUANTILE`]), so the clamp saturates only on that layer's peaks and
+//! larger billow clears the finer layers from the valleys of the coarser
+//! ones, leaving them only on the peaks.
 //!
 //! Run: `smokelab experiment 03-4` (geometry: hard-surfaced renders and
 //! meshes) or `smokelab experiment 03-5` (soft volume renders), each about
-//! 5 s on 2 cores (64³ base grid, layers cached on 64³, 96³, 128³, 256²
-//! panels; `--full` 128³ and 512², `--smoke` 16³ and 64²).
+//! 80 s on 2 cores, most of it the bunny's mesh distance on the 64³ base
+//! grid (layers cached on 64³, 96³, 128³, 256² panels; `--full` 128³ and
+//! 512², `--smoke` 16³ and 64² in about 1 s).
 //!
 //! Writes `results/03-4/` (`billow.png`, `billow_<b>.obj`) or
-//! `results/03-5/` (`billow.png`), each with `data.csv` (volume and
-//! triangles per panel) and `manifest.json`.
+//! `results/03-5/` (`billow.png`), each labelled per panel, with `data.csv`
+//! (per billow: the measured `Q_2`, `Q_3`, volume, triangles, and the mean
+//! displacement `Σ|N_i^c|` over the bunny's surface of all layers and of
+//! the cleared ones) and `manifest.json`.
+
+use std::time::Instant;
 
 use anyhow::Result;
+use glam::Vec3;
 use serde::Serialize;
 
-use crate::cloud_figures::{cloud, layers, write_panels, Look, Panel, SCALE};
+use crate::cloud_figures::{
+    base, cloud, domain, layers, write_panels, write_table, Look, Panel, SCALE,
+};
 use crate::model_render::by_size;
 use crate::registry::{Context, Experiment};
 use smokelab::field::ops::constant;
+use smokelab::field::Scalar;
 use smokelab::io;
-use smokelab::model::cloud::billow;
+use smokelab::model::cloud::measured_billow;
+use smokelab::model::mesh::Mesh;
 
 /// Registry entry of the geometry (fig 3.4).
 pub const GEOMETRY: Experiment = Experiment {
@@ -32,7 +45,7 @@ pub const GEOMETRY: Experiment = Experiment {
     folder: "03-4",
     reproduces: "fig 3.4",
     title: "billow 0.33, 0.5, 0.67, 1, 2 clearing the canyons (geometry)",
-    cost: "~5 s",
+    cost: "~80 s",
     run: run_geometry,
 };
 
@@ -42,49 +55,156 @@ pub const RENDERS: Experiment = Experiment {
     folder: "03-5",
     reproduces: "fig 3.5",
     title: "billow 0.33, 0.5, 0.67, 1, 2 clearing the canyons (volume renders)",
-    cost: "~5 s",
+    cost: "~80 s",
     run: run_renders,
 };
 
 /// The billow values of the notes' wedge.
 pub(crate) const BILLOWS: [f32; 5] = [0.33, 0.5, 0.67, 1.0, 2.0];
+/// `Q_i` of eq 3.8 is this quantile of the previous cleared layer's
+/// `|N_{i−1}^c|` over the base's surface: the clamp saturates on the top
+/// 1 % only, the peaks, as the notes' `Q = 1` does for unit-amplitude
+/// noise (a fixed `Q` of half the first layer's amplitude saturated
+/// almost everywhere, so every billow looked alike).
+pub(crate) const QUANTILE: f32 = 0.99;
 
 #[derive(Serialize)]
 struct Config {
     billows: [f32; 5],
-    q: f32,
+    quantile: f32,
     scale: f32,
     grid: usize,
     pixels: u32,
 }
 
+/// One row of `data.csv`.
+#[derive(Serialize)]
+struct Row {
+    billow: f32,
+    /// `Q_2`, `Q_3` of eq 3.8 as measured.
+    q2: f32,
+    q3: f32,
+    volume: f64,
+    triangles: usize,
+    /// Mean over the bunny's surface of `Σ_i |N_i^c|`, all three layers:
+    /// the displacement of the surface from the undisplaced base (eq 3.4
+    /// adds `|N_i^c|` at the surface point, eq 3.5 sums the layers).
+    displacement_total: f64,
+    /// The same for the two cleared layers alone (`i ≥ 1`), what billow
+    /// acts on (eq 3.8 leaves `N_0` as it is).
+    displacement_cleared: f64,
+}
+
+/// What every billow value shares: the bunny, the cloud after the first
+/// layer (eq 3.8 leaves `N_0` as it is), the raw layers, and the points
+/// of the bunny's surface on which `Q` is measured.
+pub(crate) struct Wedge {
+    first: Scalar,
+    layers: Vec<Scalar>,
+    surface: Vec<Vec3>,
+    grid: usize,
+}
+
+impl Wedge {
+    /// The shared parts at `grid` cells per axis.
+    pub(crate) fn new(grid: usize) -> Result<Self> {
+        let base = base(grid)?;
+        let layers = layers(3, constant(SCALE));
+        let first = cloud(base.clone(), &layers[..1], 0, grid)?;
+        let surface = Mesh::from_level_set(&*base, domain(grid)?).vertices;
+        Ok(Self {
+            first,
+            layers,
+            surface,
+            grid,
+        })
+    }
+
+    /// The three-layer cloud with canyon clearing `b` (eq 3.8, `Q_i`
+    /// measured, [`QUANTILE`]), its cleared layers and the `Q_i`.
+    pub(crate) fn cloud(&self, b: f32) -> Result<Billowed> {
+        let (cleared, q) = measured_billow(&self.layers, constant(b), &self.surface, QUANTILE)?;
+        let level_set = cloud(self.first.clone(), &cleared[1..], 1, self.grid)?;
+        Ok(Billowed {
+            level_set,
+            cleared,
+            q,
+        })
+    }
+
+    /// Mean over the bunny's surface points of `Σ |N_i^c|` over `layers`.
+    fn displacement(&self, layers: &[Scalar]) -> f64 {
+        let sum: f64 = self
+            .surface
+            .iter()
+            .map(|&x| {
+                layers
+                    .iter()
+                    .map(|l| f64::from(l.eval(x).abs()))
+                    .sum::<f64>()
+            })
+            .sum();
+        sum / self.surface.len() as f64
+    }
+}
+
+/// A billowed cloud.
+pub(crate) struct Billowed {
+    /// Its level set.
+    pub level_set: Scalar,
+    /// The cleared layers `N_i^c`.
+    cleared: Vec<Scalar>,
+    /// `Q_i` for the layers after the first.
+    q: Vec<f32>,
+}
+
 /// The three-layer cloud with canyon clearing `b` (eq 3.8).
-pub(crate) fn billowed(b: f32, grid: usize) -> Result<smokelab::field::Scalar> {
-    let cleared = billow(&layers(3, constant(SCALE)), 0.5 * SCALE, constant(b));
-    cloud(&cleared, grid)
+pub(crate) fn billowed(b: f32, grid: usize) -> Result<Scalar> {
+    Ok(Wedge::new(grid)?.cloud(b)?.level_set)
 }
 
 fn run_wedge(ctx: &Context, look: Look) -> Result<()> {
+    let start = Instant::now();
     let (grid, pixels) = by_size(ctx.size, [(16, 64), (64, 256), (128, 512)]);
     io::create_output_dir(&ctx.out)?;
-    let panels = BILLOWS
-        .iter()
-        .map(|&b| {
-            Ok(Panel {
-                label: format!("billow_{b}"),
-                level_set: billowed(b, grid)?,
-                density: None,
-            })
-        })
-        .collect::<Result<Vec<_>>>()?;
+    let wedge = Wedge::new(grid)?;
+    let mut panels = Vec::new();
+    let mut rows = Vec::new();
+    for &b in &BILLOWS {
+        let c = wedge.cloud(b)?;
+        rows.push(Row {
+            billow: b,
+            q2: c.q[0],
+            q3: c.q[1],
+            volume: 0.0,
+            triangles: 0,
+            displacement_total: wedge.displacement(&c.cleared),
+            displacement_cleared: wedge.displacement(&c.cleared[1..]),
+        });
+        panels.push(Panel {
+            label: format!("billow_{b}"),
+            heading: format!("billow = {b}"),
+            level_set: c.level_set,
+            density: None,
+        });
+    }
+    let title = match look {
+        Look::Geometry => "canyon clearing (eq 3.8): geometry",
+        Look::Volume => "canyon clearing (eq 3.8): volume renders",
+    };
+    let shown = write_panels(ctx, panels, (grid, pixels), look, (title, "billow.png"))?;
+    for (row, s) in rows.iter_mut().zip(shown) {
+        row.volume = s.volume;
+        row.triangles = s.mesh.triangles.len();
+    }
     let config = Config {
         billows: BILLOWS,
-        q: 0.5 * SCALE,
+        quantile: QUANTILE,
         scale: SCALE,
         grid,
         pixels,
     };
-    write_panels(ctx, config, panels, (grid, pixels), look, "billow.png")
+    write_table(ctx, config, &rows, start)
 }
 
 fn run_geometry(ctx: &Context) -> Result<()> {

@@ -1,25 +1,32 @@
 //! # 03-8 — spatial control of the displacement by fields (fig 3.8)
 //!
-//! Reproduces the notes' figure 3.8 (§3.6): the parameters of the
+//! Reproduces the notes' figure 3.8 (§3.6), a volumetric bunny with spatial
+//! control over the pyroclastic displacement: the parameters of the
 //! `NoiseLayers` script are fields, so the character of the cloud changes
 //! from place to place. Here the amplitude is a smooth ramp along x —
 //! zero on the left, the full 0.2 on the right — and the roughness rises
-//! from 0.3 to 0.7 along y, over three billow-free layers. Beside it, the
-//! same cloud with constant amplitude for comparison.
+//! from 0.3 to 0.7 along y, over three billow-free layers on the Stanford
+//! bunny (see `cloud_figures`). Beside it, the same cloud with constant
+//! amplitude for comparison.
 //!
-//! Run: `smokelab experiment 03-8` (about 2 s on 2 cores: 64³ base grid,
-//! 320² panels; `--full` 128³ and 640², `--smoke` 16³ and 64²).
+//! Run: `smokelab experiment 03-8` (about 70 s on 2 cores, most of it the
+//! bunny's mesh distance on the 64³ base grid; 320² panels; `--full` 128³
+//! and 640², `--smoke` 16³ and 64² in about 1 s).
 //!
-//! Writes `results/03-8/`: `control.png` (ramped, constant), `data.csv`,
+//! Writes `results/03-8/`: `control.png` (ramped, constant; labelled),
+//! `data.csv` (volume and surface-net triangles per panel),
 //! `manifest.json`.
 
 use std::sync::Arc;
+use std::time::Instant;
 
 use anyhow::Result;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::cloud_figures::{cloud, write_panels, Look, Panel, SCALE};
+use crate::cloud_figures::{
+    base, cloud, panel_rows, write_panels, write_table, Look, Panel, SCALE,
+};
 use crate::model_render::by_size;
 use crate::registry::{Context, Experiment};
 use smokelab::field::ops::constant;
@@ -34,7 +41,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "03-8",
     reproduces: "fig 3.8",
     title: "spatial control: displacement amplitude and roughness as fields",
-    cost: "~2 s",
+    cost: "~70 s",
     run,
 };
 
@@ -61,6 +68,7 @@ struct Config {
 }
 
 fn run(ctx: &Context) -> Result<()> {
+    let start = Instant::now();
     let (grid, pixels) = by_size(ctx.size, [(16, 64), (64, 320), (128, 640)]);
     io::create_output_dir(&ctx.out)?;
     let noise: Scalar = Arc::new(Perlin::new(0xc10d));
@@ -81,30 +89,35 @@ fn run(ctx: &Context) -> Result<()> {
         constant(2.2),
         constant(0.5),
     );
+    let bunny = base(grid)?;
     let panels = vec![
         Panel {
             label: "controlled".into(),
-            level_set: cloud(&controlled, grid)?,
+            heading: "ramped".into(),
+            level_set: cloud(bunny.clone(), &controlled, 0, grid)?,
             density: None,
         },
         Panel {
             label: "uniform".into(),
-            level_set: cloud(&uniform, grid)?,
+            heading: "uniform".into(),
+            level_set: cloud(bunny, &uniform, 0, grid)?,
             density: None,
         },
     ];
+    let labels: Vec<String> = panels.iter().map(|p| p.label.clone()).collect();
+    let shown = write_panels(
+        ctx,
+        panels,
+        (grid, pixels),
+        Look::Volume,
+        ("spatial control of the displacement", "control.png"),
+    )?;
+    let rows = panel_rows(labels, shown);
     let config = Config {
         amplitude: [0.0, SCALE],
         roughness: [0.3, 0.7],
         grid,
         pixels,
     };
-    write_panels(
-        ctx,
-        config,
-        panels,
-        (grid, pixels),
-        Look::Volume,
-        "control.png",
-    )
+    write_table(ctx, config, &rows, start)
 }

@@ -39,6 +39,19 @@ pub(crate) fn render_densities(
     step: f32,
     kappa: f32,
 ) -> Result<RgbImage> {
+    render_framed(densities, (bounds, bounds), side, step, kappa)
+}
+
+/// [`render_densities`] with the camera framing `frame` (a box inside
+/// `bounds` that holds the densities) instead of the whole of `bounds`, so
+/// the shape fills the image.
+pub(crate) fn render_framed(
+    densities: Vec<(String, Scalar, Vec3)>,
+    (bounds, frame): (Domain, Domain),
+    side: u32,
+    step: f32,
+    kappa: f32,
+) -> Result<RgbImage> {
     let volumes = densities
         .into_iter()
         .map(|(name, density, color)| look::smoke(name, density, color, kappa, look::GLOW))
@@ -51,7 +64,7 @@ pub(crate) fn render_densities(
     };
     let settings = RenderSettings {
         step: Some(step * bounds.cell),
-        ..RenderSettings::new(Camera::framing(&bounds, side, side, look::FILL))
+        ..RenderSettings::new(Camera::framing(&frame, side, side, look::FILL))
     };
     let r = render(&scene, &settings)?;
     Ok(output::preview(&r.image, &Display::default()))

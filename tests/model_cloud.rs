@@ -10,7 +10,9 @@ use smokelab::domain::Domain;
 use smokelab::field::algebra::{compose, levelset_surface};
 use smokelab::field::ops::constant;
 use smokelab::field::{Scalar, ScalarField};
-use smokelab::model::cloud::{billow, cumulo, displace, noise_layers, PyroclasticSphere};
+use smokelab::model::cloud::{
+    amplitude, billow, cumulo, displace, measured_billow, noise_layers, PyroclasticSphere,
+};
 use smokelab::model::{cache, shape};
 use smokelab::noise::perlin::Perlin;
 
@@ -164,8 +166,8 @@ fn noise_layers_follow_the_fractal_scaling() {
 fn billow_clears_the_canyons() {
     let raw = layers(2, 0.6);
     let q = 0.05;
-    let soft = billow(&raw, q, constant(0.5));
-    let hard = billow(&raw, q, constant(2.0));
+    let soft = billow(&raw, &[q], constant(0.5)).unwrap();
+    let hard = billow(&raw, &[q], constant(2.0)).unwrap();
     let (mut saturated, mut canyon) = (0, 0);
     for x in random_points(13, 4000, 1.0) {
         let prev = raw[0].eval(x).abs();
@@ -189,6 +191,37 @@ fn billow_clears_the_canyons() {
         saturated > 100 && canyon > 0,
         "saturated {saturated}, canyon {canyon}"
     );
+}
+
+/// Eq 3.8 with measured `Q`: each `Q_i` is the quantile of the previous
+/// cleared layer over the points (the 9th of 10 sorted values for 0.9, the
+/// largest for 1), so the gate saturates on the previous layer's peaks
+/// only; a wrong count of `Q`, a bad quantile or no points are refused.
+#[test]
+fn measured_billow_sets_q_against_the_previous_layer() {
+    let raw = layers(3, 0.6);
+    let points = random_points(17, 10, 1.0);
+    let (cleared, q) = measured_billow(&raw, constant(1.0), &points, 0.9).unwrap();
+    assert_eq!((cleared.len(), q.len()), (3, 2));
+    for i in 1..3 {
+        let mut v: Vec<f32> = points
+            .iter()
+            .map(|&x| cleared[i - 1].eval(x).abs())
+            .collect();
+        v.sort_by(f32::total_cmp);
+        assert_eq!(q[i - 1], v[8], "Q_{i}");
+        assert_eq!(amplitude(&*cleared[i - 1], &points, 1.0).unwrap(), v[9]);
+        let x = points
+            .iter()
+            .copied()
+            .find(|&x| cleared[i - 1].eval(x).abs() >= q[i - 1])
+            .unwrap();
+        assert_eq!(cleared[i].eval(x), raw[i].eval(x), "saturated at {x}");
+    }
+    assert!(billow(&raw, &[0.1], constant(1.0)).is_err());
+    assert!(billow(&raw, &[0.1, 0.0], constant(1.0)).is_err());
+    assert!(amplitude(&*raw[0], &points, 0.0).is_err());
+    assert!(amplitude(&*raw[0], &[], 0.5).is_err());
 }
 
 /// `cumulo` with a cache per layer (§3.3.3) stays within a cell of the

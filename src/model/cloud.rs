@@ -160,23 +160,96 @@ pub fn noise_layers(
     layers
 }
 
-/// Eq 3.8, canyon clearing: `N_i^c = N_i · clamp(|N_{i−1}^c| / Q, 0, 1)^billow`
-/// with `N_0^c = N_0`. The previous layer enters through its absolute value,
-/// the displacement it actually made (eq 3.4), so every layer after the first
-/// vanishes where the previous one did: in its canyons.
-pub fn billow(layers: &[Scalar], q: f32, billow: Scalar) -> Vec<Scalar> {
-    let mut cleared: Vec<Scalar> = Vec::with_capacity(layers.len());
-    for layer in layers {
-        let next = match cleared.last() {
-            None => layer.clone(),
-            Some(prev) => {
-                let gate = clamp(ops::scale(abs(prev.clone()), 1.0 / q), 0.0, 1.0);
-                mul(layer.clone(), pow_field(gate, billow.clone()))
-            }
-        };
-        cleared.push(next);
+/// Eq 3.8, canyon clearing: `N_i^c = N_i · clamp(|N_{i−1}^c| / Q_i, 0, 1)^billow`
+/// with `N_0^c = N_0` and `q[i − 1] = Q_i` for each layer after the first.
+/// The previous layer enters through its absolute value, the displacement
+/// it actually made (eq 3.4), so every layer after the first vanishes where
+/// the previous one did: in its canyons. The notes' `Q = 1` is for
+/// unit-amplitude noise; [`measured_billow`] sets each `Q_i` against the
+/// previous layer's own amplitude.
+///
+/// # Errors
+/// If `q` does not hold one finite positive value per layer after the
+/// first.
+pub fn billow(layers: &[Scalar], q: &[f32], billow: Scalar) -> Result<Vec<Scalar>, InputError> {
+    if q.len() + 1 != layers.len().max(1) {
+        crate::input_bail!(
+            "billow: {} values of Q for {} layers; give one per layer after the first",
+            q.len(),
+            layers.len()
+        );
     }
-    cleared
+    if let Some(bad) = q.iter().find(|q| !(q.is_finite() && **q > 0.0)) {
+        crate::input_bail!("billow: Q = {bad}; it must be finite and positive");
+    }
+    let mut cleared: Vec<Scalar> = layers.iter().take(1).cloned().collect();
+    for (layer, &qi) in layers.iter().skip(1).zip(q) {
+        let prev = cleared.last().expect("the first layer is in").clone();
+        cleared.push(clear(layer, prev, qi, &billow));
+    }
+    Ok(cleared)
+}
+
+/// One step of eq 3.8: `layer · clamp(|prev| / q, 0, 1)^billow`.
+fn clear(layer: &Scalar, prev: Scalar, q: f32, billow: &Scalar) -> Scalar {
+    let gate = clamp(ops::scale(abs(prev), 1.0 / q), 0.0, 1.0);
+    mul(layer.clone(), pow_field(gate, billow.clone()))
+}
+
+/// The amplitude of a displacement layer on a surface: the `quantile`
+/// (in `(0, 1]`; 1 is the maximum) of `|N(x)|` over the surface points
+/// `surface`.
+///
+/// # Errors
+/// If `surface` is empty or `quantile` is outside `(0, 1]`.
+pub fn amplitude(
+    layer: &dyn ScalarField,
+    surface: &[Vec3],
+    quantile: f32,
+) -> Result<f32, InputError> {
+    if surface.is_empty() {
+        crate::input_bail!("amplitude: no surface points");
+    }
+    if !(quantile > 0.0 && quantile <= 1.0) {
+        crate::input_bail!("amplitude: quantile {quantile} is outside (0, 1]");
+    }
+    let mut values: Vec<f32> = surface.iter().map(|&x| layer.eval(x).abs()).collect();
+    let rank = ((quantile * values.len() as f32).ceil() as usize).clamp(1, values.len()) - 1;
+    let (_, &mut v, _) = values.select_nth_unstable_by(rank, f32::total_cmp);
+    Ok(v)
+}
+
+/// Eq 3.8 with each `Q_i` measured: the `quantile` of the previous cleared
+/// layer's `|N_{i−1}^c|` over the points `surface` ([`amplitude`]), so the
+/// clamp saturates only on that layer's peaks, as the notes' `Q = 1` does
+/// for unit-amplitude noise, whatever the layers' amplitudes. `Q_i` is
+/// measured after layer `i − 1` is cleared, so it depends on `billow`.
+/// Returns the cleared layers and the `Q_i`.
+///
+/// # Errors
+/// As [`amplitude`], or if a previous layer vanishes on the whole surface
+/// (`Q_i = 0`, nothing to clear against).
+pub fn measured_billow(
+    layers: &[Scalar],
+    billow_exponent: Scalar,
+    surface: &[Vec3],
+    quantile: f32,
+) -> Result<(Vec<Scalar>, Vec<f32>), InputError> {
+    let mut q = Vec::new();
+    let mut cleared: Vec<Scalar> = layers.iter().take(1).cloned().collect();
+    for (i, layer) in layers.iter().enumerate().skip(1) {
+        let prev = cleared[i - 1].clone();
+        let qi = amplitude(&*prev, surface, quantile)?;
+        if qi <= 0.0 {
+            crate::input_bail!(
+                "billow: layer {} vanishes on the surface; Q would be 0",
+                i - 1
+            );
+        }
+        q.push(qi);
+        cleared.push(clear(layer, prev, qi, &billow_exponent));
+    }
+    Ok((cleared, q))
 }
 
 /// Eq 3.9: `u(x) = a (P(s x), P(s x + Δ₁), P(s x + Δ₂))`, Perlin noise at

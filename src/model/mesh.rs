@@ -34,13 +34,22 @@ impl Mesh {
     /// Read the faces of every object in an OBJ file (polygons are fanned
     /// into triangles); materials are ignored.
     pub fn read_obj(path: &Path) -> Result<Self, InputError> {
+        let text = std::fs::read(path)
+            .map_err(|e| InputError::new(format!("cannot read OBJ {}: {e}", path.display())))?;
+        Self::parse_obj(&text, &path.display().to_string())
+    }
+
+    /// [`Mesh::read_obj`] of OBJ text already in memory (an embedded
+    /// asset), `name` naming it in errors.
+    pub fn parse_obj(text: &[u8], name: &str) -> Result<Self, InputError> {
         let options = tobj::LoadOptions {
             triangulate: true,
             single_index: true,
             ..Default::default()
         };
-        let (models, _materials) = tobj::load_obj(path, &options)
-            .map_err(|e| InputError::new(format!("cannot read OBJ {}: {e}", path.display())))?;
+        let (models, _materials) =
+            tobj::load_obj_buf(&mut &text[..], &options, |_| Ok(Default::default()))
+                .map_err(|e| InputError::new(format!("cannot read OBJ {name}: {e}")))?;
         let mut mesh = Mesh::default();
         for m in models {
             let base = mesh.vertices.len() as u32;
@@ -58,10 +67,10 @@ impl Mesh {
             );
         }
         if mesh.triangles.is_empty() {
-            crate::input_bail!("OBJ {} has no faces", path.display());
+            crate::input_bail!("OBJ {name} has no faces");
         }
         if let Some(v) = mesh.vertices.iter().find(|v| !v.is_finite()) {
-            crate::input_bail!("OBJ {} has a vertex at {v}", path.display());
+            crate::input_bail!("OBJ {name} has a vertex at {v}");
         }
         Ok(mesh)
     }
