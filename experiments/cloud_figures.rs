@@ -172,10 +172,7 @@ pub(crate) fn write_panels(
         )?);
     }
     let headings: Vec<String> = panels.iter().map(|p| p.heading.clone()).collect();
-    io::write_png(
-        &ctx.out.join(image),
-        &panels::row(&images, 6, title, &headings)?,
-    )?;
+    panels::save_row(&ctx.out.join(image), &images, 6, title, &headings)?;
     Ok(shown)
 }
 
