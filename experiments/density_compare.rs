@@ -229,32 +229,48 @@ pub(crate) fn grid(rows: &[Vec<RgbImage>], gap: u32) -> RgbImage {
     preview::stacked(&rows, gap)
 }
 
-/// The pictures `pick` of each result at the captured frames, one row per
-/// result named by its label, one column per frame headed by its time
-/// (`capture`, steps of `dt`), under `title`, written to `path` with its
-/// caption ([`panels::save`]).
+/// The captured pictures of each result, one row per result named by its
+/// label, one column per frame headed by its time (`capture`, steps of
+/// `dt`): the mid-plane slices into `out/<stem>.png` and the volume renders
+/// into `out/<stem>_render.png`, each titled `title` and what it shows,
+/// with its caption ([`panels::save`]).
 pub(crate) fn save_frames(
-    path: &Path,
+    (out, stem): (&Path, &str),
     title: &str,
     results: &[&ModeResult],
-    pick: fn(&Captured) -> RgbImage,
     (capture, dt): (&[usize], f32),
 ) -> Result<()> {
-    let rows: Vec<Vec<RgbImage>> = results
-        .iter()
-        .map(|r| r.frames.iter().map(pick).collect())
-        .collect();
     let names: Vec<String> = results.iter().map(|r| r.label.clone()).collect();
     let columns: Vec<String> = capture
         .iter()
         .map(|&f| panels::frame_heading(f, dt))
         .collect();
-    let labels = Labels {
-        title,
-        rows: &names,
-        columns: &columns,
-    };
-    panels::save(path, &rows, 4, &labels)
+    let figures: [(String, fn(&Captured) -> RgbImage, &str); 2] = [
+        (
+            format!("{stem}.png"),
+            |f| f.slice.clone(),
+            "mid-plane slices",
+        ),
+        (
+            format!("{stem}_render.png"),
+            |f| f.render.clone(),
+            "volume renders",
+        ),
+    ];
+    for (file, pick, what) in figures {
+        let rows: Vec<Vec<RgbImage>> = results
+            .iter()
+            .map(|r| r.frames.iter().map(pick).collect())
+            .collect();
+        let title = format!("{title}: {what}");
+        let labels = Labels {
+            title: &title,
+            rows: &names,
+            columns: &columns,
+        };
+        panels::save(&out.join(file), &rows, 4, &labels)?;
+    }
+    Ok(())
 }
 
 /// The colour of a mode in every plot.

@@ -104,21 +104,8 @@ fn run(ctx: &Context) -> Result<()> {
     let gridless = &results[0];
     let times = (capture.as_slice(), config.solver.dt);
     let res = config.solver.res;
-    for (file, pick, what) in [
-        (
-            "sequence.png",
-            (|f: &dc::Captured| f.slice.clone()) as fn(&dc::Captured) -> _,
-            "mid-plane slices",
-        ),
-        (
-            "sequence_render.png",
-            |f: &dc::Captured| f.render.clone(),
-            "volume renders",
-        ),
-    ] {
-        let title = format!("06-3 hot/cold, gridless density on a {res}³ velocity grid: {what}");
-        dc::save_frames(&ctx.out.join(file), &title, &[gridless], pick, times)?;
-    }
+    let title = format!("06-3 hot/cold, gridless density on a {res}³ velocity grid");
+    dc::save_frames((&ctx.out, "sequence"), &title, &[gridless], times)?;
     io::write_png(
         &ctx.out.join("frame.png"),
         &dc::slice(&gridless.sim, 3 * look.slice),

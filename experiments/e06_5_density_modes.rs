@@ -142,21 +142,8 @@ fn run(ctx: &Context) -> Result<()> {
     let all: Vec<&dc::ModeResult> = results.iter().collect();
     let times = (capture.as_slice(), config.solver.dt);
     let res = config.solver.res;
-    for (file, pick, what) in [
-        (
-            "side_by_side.png",
-            (|f: &dc::Captured| f.slice.clone()) as fn(&dc::Captured) -> _,
-            "mid-plane slices",
-        ),
-        (
-            "side_by_side_render.png",
-            |f: &dc::Captured| f.render.clone(),
-            "volume renders",
-        ),
-    ] {
-        let title = format!("06-5 hot/cold by density mode, {res}³ velocity grid: {what}");
-        dc::save_frames(&ctx.out.join(file), &title, &all, pick, times)?;
-    }
+    let title = format!("06-5 hot/cold by density mode, {res}³ velocity grid");
+    dc::save_frames((&ctx.out, "side_by_side"), &title, &all, times)?;
     let finals: Vec<image::RgbImage> = results
         .iter()
         .map(|r| dc::slice(&r.sim, 2 * look.slice))
