@@ -245,7 +245,8 @@ pub(crate) fn save_frames(
         .iter()
         .map(|&f| panels::frame_heading(f, dt))
         .collect();
-    let figures: [(String, fn(&Captured) -> RgbImage, &str); 2] = [
+    type Pick = fn(&Captured) -> RgbImage;
+    let figures: [(String, Pick, &str); 2] = [
         (
             format!("{stem}.png"),
             |f| f.slice.clone(),
