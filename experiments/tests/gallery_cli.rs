@@ -228,7 +228,18 @@ fn every_committed_figure_is_on_the_page() {
             );
         }
     }
-    assert!(html.contains("06-1: frames 25–150 of the gridded hot/cold run"));
+    // A figure's caption is the one its experiment generated from its
+    // labels (figures.json), else the paper's alt text.
+    let generated: std::collections::BTreeMap<String, String> =
+        serde_json::from_str(&std::fs::read_to_string(results.join("06-1/figures.json")).unwrap())
+            .unwrap();
+    let caption = &generated["sequence.png"];
+    assert!(caption.contains("head-on"), "{caption}");
+    assert!(
+        html.contains(caption.as_str()),
+        "no generated caption {caption}"
+    );
+    assert!(html.contains("06-3 metrics over time"));
 }
 
 /// Screenshot the page of the committed results with headless Chromium
