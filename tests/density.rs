@@ -576,13 +576,16 @@ fn gridless_memory_grows_by_one_velocity_grid_per_step_and_selma_memory_is_const
     // job injector (63 slots of 24 B and a link), allocated by this thread
     // and freed by a worker. SELMA keeps those blocks only: 15 200 and
     // 21 280 B over its last 30 steps in two runs, under half a velocity
-    // grid, where gridless keeps 30 grids.
+    // grid, where gridless keeps 30 grids. The cell average's refinement
+    // lists (`gridless::refined_cells`) are built by rayon's workers and
+    // freed by this thread, which counts them as up to 2 256 B freed: kept
+    // per step measured 47 272–49 816 B.
     println!("gridless: bytes kept per step {grown:?} (one velocity grid: {velocity_bytes} B)");
     println!("SELMA: bytes kept per step after step 10 {selma_grown:?}");
     let v = velocity_bytes as i64;
     for (n, &g) in grown.iter().enumerate() {
         assert!(
-            (v..=v + 4096).contains(&g),
+            (v - 4096..=v + 4096).contains(&g),
             "gridless step {} kept {g} B; one velocity grid is {v} B",
             n + 1
         );
@@ -611,11 +614,10 @@ fn every_mode_runs_and_its_field_snapshot_matches_its_cell_centres() {
         for gas in &sim.gases {
             let snapshot = gas.model.field();
             // Gridded: the grid's interpolant, at the centres; SELMA: the
-            // field's cell averages; gridless: its own walks, adaptively
-            // averaged.
+            // field at the centres (its default); gridless: its own walks,
+            // adaptively averaged.
             let sampled = match mode {
-                DensityMode::Gridded => eval(&*snapshot, &centres(&d)),
-                DensityMode::Selma => cell_means(&*snapshot, &d, None),
+                DensityMode::Gridded | DensityMode::Selma => eval(&*snapshot, &centres(&d)),
                 DensityMode::Gridless => {
                     assert_own_walk(&[(&gas.model, None)], "hot/cold");
                     continue;
@@ -647,7 +649,8 @@ fn centres(d: &Domain) -> Vec<Vec3> {
 
 /// The cell averages of `f` on the cells of `d` as the cache of a gridless
 /// or SELMA density holds them: the mean of its eight sub-cell points
-/// (offsets ±¼ cell, summed in the offsets' order, x fastest), zero in the
+/// (offsets ±¼ cell, summed in the offsets' order, x fastest) — of those
+/// outside `walls`, the mean over the cell's fluid part — and zero in the
 /// cells whose centres lie inside `walls`.
 fn cell_means(f: &dyn ScalarField, d: &Domain, walls: Option<&WallStop>) -> Vec<f32> {
     let subs: Vec<Vec3> = (0..8)
@@ -665,7 +668,17 @@ fn cell_means(f: &dyn ScalarField, d: &Domain, walls: Option<&WallStop>) -> Vec<
     (0..c.len())
         .map(|m| match walls {
             Some(w) if w.inside_world(c[m]) => 0.0,
-            _ => (0..8).map(|s| values[s * c.len() + m]).sum::<f32>() * 0.125,
+            None => (0..8).map(|s| values[s * c.len() + m]).sum::<f32>() * 0.125,
+            Some(w) => {
+                let wet: Vec<f32> = (0..8)
+                    .filter(|s| !w.inside_world(points[s * c.len() + m]))
+                    .map(|s| values[s * c.len() + m])
+                    .collect();
+                match wet.len() {
+                    0 => 0.0,
+                    n => wet.iter().sum::<f32>() / n as f32,
+                }
+            }
         })
         .collect()
 }
@@ -843,7 +856,7 @@ fn cell_average_of_a_quadratic_at_rest_is_the_midpoint_rule() {
             (CellSamples::Centre, 0.0),
         ] {
             let options = DensityOptions {
-                cell_samples: samples,
+                cell_samples: Some(samples),
                 ..DensityOptions::mode(mode)
             };
             let mut model = DensityModel::new(&options, d, Some(Arc::new(Parabola)), None);

@@ -17,8 +17,15 @@
 //! each coordinate (trilinear) and with error `Δx²/96 · ∇²ρ` for a smooth
 //! one; each sub-cell point is walked back through the history on its own
 //! (gridless) or read through the map (SELMA). [`CellSamples`] selects it
-//! (the default) or the point sample at the centre (one walk per cell
-//! instead of eight).
+//! or the point sample at the centre (one walk per cell instead of eight).
+//!
+//! The default is the average for gridless and the centre for SELMA
+//! ([`CellSamples::default_for`]): SELMA's reference `R` is itself a grid of
+//! 2×2×2 cell averages (its injection and its re-anchoring), composed with
+//! a map sampled on the velocity grid's lattice, so its centre values are
+//! already band-limited at the grid's spacing (0 % of its mass in isolated
+//! blobs on the slab box, either way); averaging them again blurs `R` once
+//! more and costs eight map reads per cell.
 //!
 //! The points are laid out offset by offset ([`sub_points`]): sub-point `s`
 //! of centre `m` at `s·n + m`, so that a run of lanes of the vector kernels
@@ -27,7 +34,8 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::BoxWrap;
+use super::{BoxWrap, DensityMode};
+use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::error::InputError;
 
@@ -45,7 +53,7 @@ pub(crate) const SUB: [Vec3; 8] = [
 
 /// How a gridless or SELMA density is sampled onto the velocity grid for
 /// the buoyancy force and the saved volumes: the number of points per cell.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(try_from = "usize", into = "usize")]
 pub enum CellSamples {
     /// `1`: the point sample at the cell centre (aliases sub-cell filaments
@@ -53,11 +61,20 @@ pub enum CellSamples {
     Centre,
     /// `8`: the cell average over the 2×2×2 sub-cell points (module
     /// documentation); eight walks per cell.
-    #[default]
     Average,
 }
 
 impl CellSamples {
+    /// The default of a density mode (module documentation): the average
+    /// for gridless, the centre for SELMA (and for gridded, which has no
+    /// field finer than its grid).
+    pub fn default_for(mode: DensityMode) -> Self {
+        match mode {
+            DensityMode::Gridless => CellSamples::Average,
+            DensityMode::Gridded | DensityMode::Selma => CellSamples::Centre,
+        }
+    }
+
     /// Points per cell: 1 or 8.
     pub fn count(self) -> usize {
         match self {
@@ -133,21 +150,44 @@ pub(crate) fn sub_sum(values: &[f32], m: usize) -> f32 {
 }
 
 /// `out[m]` = the value of cell `m` from `values` at its
-/// [`cell_points`]: the value itself, or the mean of its eight.
+/// [`cell_points`] `points`: the value itself, or the mean over its
+/// sub-points that lie in the fluid (outside `walls`) — the average over
+/// the cell's fluid part, so that a cell cut by a wall keeps its gas (zero
+/// when every sub-point is inside). Without walls, or with all eight
+/// outside, the mean of all eight.
 ///
 /// # Panics
-/// If `values` does not hold `samples.count()` values per cell of `out`.
-pub(crate) fn cell_values(samples: CellSamples, values: &[f32], out: &mut [f32]) {
-    assert_eq!(
-        values.len(),
-        samples.count() * out.len(),
+/// If `values` and `points` do not hold `samples.count()` entries per cell
+/// of `out`.
+pub(crate) fn cell_values(
+    samples: CellSamples,
+    values: &[f32],
+    (points, walls): (&[Vec3], Option<&WallStop>),
+    out: &mut [f32],
+) {
+    let n = out.len();
+    assert!(
+        values.len() == samples.count() * n && points.len() == values.len(),
         "cell_values: one value per sample point"
     );
-    match samples {
-        CellSamples::Centre => out.copy_from_slice(values),
-        CellSamples::Average => {
+    match (samples, walls) {
+        (CellSamples::Centre, _) => out.copy_from_slice(values),
+        (CellSamples::Average, None) => {
             for (m, o) in out.iter_mut().enumerate() {
                 *o = sub_sum(values, m) * 0.125;
+            }
+        }
+        (CellSamples::Average, Some(w)) => {
+            for (m, o) in out.iter_mut().enumerate() {
+                let wet = (0..SUB.len()).filter(|s| !w.inside_world(points[s * n + m]));
+                let (sum, count) = wet.fold((0.0f32, 0u8), |(sum, count), s| {
+                    (sum + values[s * n + m], count + 1)
+                });
+                *o = if count == 0 {
+                    0.0
+                } else {
+                    sum / f32::from(count)
+                };
             }
         }
     }
@@ -175,7 +215,7 @@ mod tests {
         let ramp = |p: Vec3| 1.0 + p.x - 2.0 * p.y + 0.5 * p.z;
         let values: Vec<f32> = points.iter().map(|&p| ramp(p)).collect();
         let mut cells = [0.0; 2];
-        cell_values(CellSamples::Average, &values, &mut cells);
+        cell_values(CellSamples::Average, &values, (&points, None), &mut cells);
         // Dyadic centres, offsets and slopes: every value and sum is exact.
         for (&c, &p) in cells.iter().zip(&centres) {
             assert_eq!(c, ramp(p));
@@ -187,6 +227,13 @@ mod tests {
         assert_eq!(CellSamples::try_from(1).unwrap(), CellSamples::Centre);
         assert_eq!(CellSamples::try_from(8).unwrap().count(), 8);
         assert!(CellSamples::try_from(4).is_err());
-        assert_eq!(CellSamples::default(), CellSamples::Average);
+        assert_eq!(
+            CellSamples::default_for(DensityMode::Gridless),
+            CellSamples::Average
+        );
+        assert_eq!(
+            CellSamples::default_for(DensityMode::Selma),
+            CellSamples::Centre
+        );
     }
 }

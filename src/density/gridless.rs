@@ -70,7 +70,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::cell_average::{cell_points, cell_values, CellSamples};
-use super::{wrap_grid, Buffer, StepInput};
+use super::{wrap_grid, Buffer, DensityMode, StepInput};
 use crate::advection::{departure_points_wrapped, Backtrace};
 use crate::boundary::WallStop;
 use crate::domain::Domain;
@@ -375,7 +375,7 @@ impl Gridless {
     pub fn new(domain: Domain, initial: Option<Scalar>, source: Option<Scalar>) -> Self {
         let mut gas = Self {
             field: GridlessField::new(domain, initial, source),
-            samples: CellSamples::default(),
+            samples: CellSamples::default_for(DensityMode::Gridless),
             centres: ScalarGrid::zeros(domain),
         };
         gas.evaluate_centres();
@@ -610,8 +610,9 @@ fn walk_cells(
             }
             let mut walked: Vec<&mut [f32]> = values.iter_mut().map(|v| &mut v[..]).collect();
             GridlessField::eval_batch_shared(fields, points, &mut walked);
+            let walls = fields[0].walls.as_deref();
             for (v, m) in values.iter().zip(means.iter_mut()) {
-                cell_values(samples, v, m);
+                cell_values(samples, v, (points, walls), m);
             }
             let mut dry: Vec<&mut [f32]> = means.iter_mut().map(|m| &mut m[..]).collect();
             fields[0].clear_inside(chosen, &mut dry);

@@ -132,8 +132,9 @@ pub struct DensityOptions {
     /// more than this many map cells (0: never; see [`selma`]).
     pub selma_remap: f32,
     /// Gridless and SELMA: how the density is put on the velocity grid for
-    /// the force and the saved volumes ([`cell_average`]).
-    pub cell_samples: CellSamples,
+    /// the force and the saved volumes ([`cell_average`]; `None`: the
+    /// mode's default, [`CellSamples::default_for`]).
+    pub cell_samples: Option<CellSamples>,
 }
 
 impl Default for DensityOptions {
@@ -142,7 +143,7 @@ impl Default for DensityOptions {
             mode: DensityMode::Gridded,
             map_res: None,
             selma_remap: DEFAULT_SELMA_REMAP,
-            cell_samples: CellSamples::default(),
+            cell_samples: None,
         }
     }
 }
@@ -283,10 +284,13 @@ impl DensityModel {
         initial: Option<Scalar>,
         source: Option<Scalar>,
     ) -> Self {
+        let samples = options
+            .cell_samples
+            .unwrap_or(CellSamples::default_for(options.mode));
         match options.mode {
             DensityMode::Gridded => DensityModel::Gridded(Gridded::new(domain, initial.as_ref())),
             DensityMode::Gridless => DensityModel::Gridless(
-                Gridless::new(domain, initial, source).with_cell_samples(options.cell_samples),
+                Gridless::new(domain, initial, source).with_cell_samples(samples),
             ),
             DensityMode::Selma => {
                 let map = options
@@ -294,7 +298,7 @@ impl DensityModel {
                     .unwrap_or_else(|e| panic!("invalid density options: {e}"));
                 DensityModel::Selma(Box::new(
                     Selma::new(domain, map, initial, source, options.selma_remap)
-                        .with_cell_samples(options.cell_samples),
+                        .with_cell_samples(samples),
                 ))
             }
         }

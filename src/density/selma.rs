@@ -108,7 +108,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::cell_average::{cell_points, cell_values, sub_points, sub_sum, CellSamples, SUB};
-use super::{BoxWrap, Buffer, StepInput};
+use super::{BoxWrap, Buffer, DensityMode, StepInput};
 use crate::advection::departure_points;
 use crate::advection::semi_lagrangian::{advect_map, sample_points};
 use crate::boundary::WallStop;
@@ -604,7 +604,7 @@ impl Selma {
             fresh: (remap > 0.0).then(|| ScalarGrid::zeros(map)),
             source,
             restarts: 0,
-            samples: CellSamples::default(),
+            samples: CellSamples::default_for(DensityMode::Selma),
             centres: ScalarGrid::zeros(domain),
         };
         gas.evaluate_centres();
@@ -710,10 +710,11 @@ impl Selma {
                     }
                     values.resize(xi.len(), 0.0);
                     field.at_reference(xi, values);
-                    if samples == CellSamples::Average {
-                        field.clear_inside(points, values);
-                    }
-                    cell_values(samples, values, out);
+                    let sampled = match samples {
+                        CellSamples::Centre => &centres[..],
+                        CellSamples::Average => &points[..],
+                    };
+                    cell_values(samples, values, (sampled, field.walls.as_deref()), out);
                     field.clear_inside(centres, out);
                 },
             );

@@ -60,10 +60,11 @@ pub struct SolverConfig {
     pub selma_remap: f32,
     /// Gridless and SELMA: points per cell when the density is put on the
     /// grid for the buoyancy force and the saved volumes — `8`, the cell
-    /// average over 2×2×2 sub-cell points (band-limited; eight walks per
-    /// cell, about 8× the density's evaluation cost), or `1`, the point
-    /// sample at the cell centre (aliases sub-cell filaments into specks).
-    pub cell_samples: CellSamples,
+    /// average over 2×2×2 sub-cell points (band-limited; the gridless
+    /// default), or `1`, the point sample at the cell centre (the SELMA
+    /// default; for gridless it aliases sub-cell filaments into specks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cell_samples: Option<CellSamples>,
     /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
     pub sample_res: Option<usize>,
     /// Write volumes and a preview every this many frames (0: metrics only).
@@ -98,7 +99,7 @@ impl Default for SolverConfig {
             density: DensityMode::Gridded,
             map_res: None,
             selma_remap: DEFAULT_SELMA_REMAP,
-            cell_samples: CellSamples::default(),
+            cell_samples: None,
             sample_res: None,
             save_every: 10,
             metrics_every: 10,
