@@ -63,7 +63,6 @@ pub struct SolverConfig {
     /// average over 2×2×2 sub-cell points (band-limited; the gridless
     /// default), or `1`, the point sample at the cell centre (the SELMA
     /// default; for gridless it aliases sub-cell filaments into specks).
-    #[serde(skip_serializing_if = "Option::is_none")]
     pub cell_samples: Option<CellSamples>,
     /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
     pub sample_res: Option<usize>,
