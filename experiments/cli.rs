@@ -180,6 +180,10 @@ pub struct SolverFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub selma_remap: Option<f32>,
+    /// Gridless and SELMA: points per cell for the force and the saved volumes — 8, the 2×2×2 cell average (gridless default; adaptive: eight walks only in cells where the gas varies), or 1, the cell centre (SELMA default, whose reference is already cell averages; for gridless it aliases sub-cell filaments into specks).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cell_samples: Option<usize>,
     /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]

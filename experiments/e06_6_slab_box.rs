@@ -30,7 +30,9 @@
 //! `data.csv` (one line per case: the largest share of the gas inside
 //! obstacles, the largest speed through a closed face, the mean flux
 //! divergence of the fluid cells, the final and lowest retained fraction,
-//! final vs injected mass at 2× sampling, the mean conjugate-gradient
+//! final vs injected mass at 2× sampling, the share of the last saved
+//! density's mass in isolated blobs (`smokelab::metrics::blobs`: components
+//! of fewer than 8 cells above 5 % of the maximum), the mean conjugate-gradient
 //! iterations of the obstacle solve and of QUICK's open-face projection,
 //! wall time), and per case a folder (`sl-gridless-reflect/`, …) with
 //! `metrics.csv`, `manifest.json`, `preview_NNNN.png` and the volumes
@@ -57,9 +59,11 @@ use crate::table::Columns;
 use smokelab::advection::Scheme;
 use smokelab::boundary::{AsField, BoundaryRule, Obstacle, ObstacleMethod};
 use smokelab::density::DensityMode;
+use smokelab::domain::Domain;
 use smokelab::field::Scalar;
 use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, preview};
+use smokelab::metrics::{isolated_mass_share, BLOB_CELLS, BLOB_LEVEL};
 use smokelab::scenario::slab_box::SlabBoxConfig;
 
 /// Registry entry.
@@ -165,7 +169,7 @@ fn run(ctx: &Context) -> Result<()> {
     let mut data = String::from(
         "case,res,frames,alpha,max_obstacle_fraction,max_closed_flux,\
          mean_div_fluid_rms,final_retained,min_retained,final_mass,injected_mass,\
-         mean_cg_iterations,mean_face_cg_iterations,wall_seconds\n",
+         isolated_blob_mass,mean_cg_iterations,mean_face_cg_iterations,wall_seconds\n",
     );
     let (mut rows, mut render_rows) = (vec![], vec![]);
     let mut plot = Plot::new(
@@ -196,8 +200,10 @@ fn run(ctx: &Context) -> Result<()> {
             .iter()
             .skip(steps.len() / 10)
             .fold(f64::INFINITY, |a, &b| a.min(b));
+        let last = *saved.last().expect("the notes' frames are saved");
+        let final_density = read_density(&config.solver.domain()?, &out, last)?;
         data.push_str(&format!(
-            "{},{res},{frames},{},{:.6e},{:.6e},{:.6e},{:.4},{:.4},{:.6},{:.6},{:.1},{:.1},{:.2}\n",
+            "{},{res},{frames},{},{:.6e},{:.6e},{:.6e},{:.4},{:.4},{:.6},{:.6},{:.4},{:.1},{:.1},{:.2}\n",
             case.name,
             config.boundary_options().retained(),
             m.max("obstacle_fraction")?,
@@ -207,6 +213,7 @@ fn run(ctx: &Context) -> Result<()> {
             lowest,
             m.last("density_mass")?,
             m.last("density_injected")?,
+            isolated_mass_share(&final_density, BLOB_LEVEL, BLOB_CELLS),
             m.mean("cg_iterations")?,
             m.mean("face_cg_iterations")?,
             summary.wall_seconds,
@@ -267,11 +274,8 @@ fn figure_row(
     let slab_volume: Scalar = Arc::new(slab.clone());
     let mut slices = vec![];
     let mut renders = vec![];
-    for f in frames {
-        let path = dir.join(format!("density_{f:04}.npy"));
-        let rho: ndarray::Array3<f32> = ndarray_npy::read_npy(&path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let rho = ScalarGrid::from_array(domain, rho);
+    for &f in frames {
+        let rho = read_density(&domain, dir, f)?;
         let layers = [
             preview::Layer {
                 grid: &rho,
@@ -305,6 +309,14 @@ fn figure_row(
         )?);
     }
     Ok((slices, renders))
+}
+
+/// The density a run saved in `dir` at `frame`, on `domain`.
+fn read_density(domain: &Domain, dir: &Path, frame: usize) -> Result<ScalarGrid> {
+    let path = dir.join(format!("density_{frame:04}.npy"));
+    let rho: ndarray::Array3<f32> =
+        ndarray_npy::read_npy(&path).with_context(|| format!("cannot read {}", path.display()))?;
+    Ok(ScalarGrid::from_array(*domain, rho))
 }
 
 #[cfg(test)]

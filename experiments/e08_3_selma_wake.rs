@@ -370,9 +370,9 @@ fn warmed_up(n: usize) -> Result<(Simulation, RgbImage)> {
 fn cloud_gas(sim: &Simulation, cloud: Scalar, map_cells: usize) -> Gas {
     let domain = *sim.domain();
     let options = DensityOptions {
-        mode: DensityMode::Selma,
         map_res: Some(map_cells),
         selma_remap: 0.0,
+        ..DensityOptions::mode(DensityMode::Selma)
     };
     Gas {
         name: "cloud".into(),

@@ -154,6 +154,19 @@ impl Domain {
         self.index(c[0], c[1], c[2])
     }
 
+    /// The 3×3×3 block of cells around cell `[i, j, k]` (itself the
+    /// thirteenth, its 26 neighbours around it), as linear indices, wrapped
+    /// periodically; on an axis of fewer than three cells a cell appears
+    /// more than once.
+    pub fn block(&self, c: [usize; 3]) -> impl Iterator<Item = usize> + '_ {
+        let step = |c: usize, d: usize, len: usize| (c + len + d - 1) % len;
+        (0..27).map(move |o| {
+            let [nx, ny, nz] = self.dims;
+            let (a, b, e) = (o % 3, (o / 3) % 3, o / 9);
+            self.index(step(c[0], a, nx), step(c[1], b, ny), step(c[2], e, nz))
+        })
+    }
+
     /// Call `f(n, [i, j, k], &mut values[n])` for every cell of a `[z][y][x]`
     /// array (or a periodic face component, which has the same layout), in
     /// parallel over z-slabs.

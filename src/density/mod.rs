@@ -28,6 +28,7 @@
 //! field snapshot ([`DensityModel::field`]), and reports the memory it holds
 //! from its actual buffers ([`DensityModel::buffers`]).
 
+pub mod cell_average;
 pub mod gridded;
 pub mod gridless;
 pub mod probe;
@@ -45,6 +46,7 @@ use crate::error::InputError;
 use crate::field::{Scalar, VectorField};
 use crate::grid::{FaceGrid, ScalarGrid, VectorGrid};
 
+pub use cell_average::CellSamples;
 pub use gridded::Gridded;
 pub use gridless::{Gridless, GridlessField, HistoryStep};
 pub use selma::{step_group, MapState, Selma, SelmaField, SelmaState};
@@ -129,6 +131,10 @@ pub struct DensityOptions {
     /// SELMA: re-anchor the map when the tracked lattice has deformed by
     /// more than this many map cells (0: never; see [`selma`]).
     pub selma_remap: f32,
+    /// Gridless and SELMA: how the density is put on the velocity grid for
+    /// the force and the saved volumes ([`cell_average`]; `None`: the
+    /// mode's default, [`CellSamples::default_for`]).
+    pub cell_samples: Option<CellSamples>,
 }
 
 impl Default for DensityOptions {
@@ -137,6 +143,7 @@ impl Default for DensityOptions {
             mode: DensityMode::Gridded,
             map_res: None,
             selma_remap: DEFAULT_SELMA_REMAP,
+            cell_samples: None,
         }
     }
 }
@@ -277,20 +284,22 @@ impl DensityModel {
         initial: Option<Scalar>,
         source: Option<Scalar>,
     ) -> Self {
+        let samples = options
+            .cell_samples
+            .unwrap_or(CellSamples::default_for(options.mode));
         match options.mode {
             DensityMode::Gridded => DensityModel::Gridded(Gridded::new(domain, initial.as_ref())),
-            DensityMode::Gridless => DensityModel::Gridless(Gridless::new(domain, initial, source)),
+            DensityMode::Gridless => DensityModel::Gridless(
+                Gridless::new(domain, initial, source).with_cell_samples(samples),
+            ),
             DensityMode::Selma => {
                 let map = options
                     .map_domain(&domain)
                     .unwrap_or_else(|e| panic!("invalid density options: {e}"));
-                DensityModel::Selma(Box::new(Selma::new(
-                    domain,
-                    map,
-                    initial,
-                    source,
-                    options.selma_remap,
-                )))
+                DensityModel::Selma(Box::new(
+                    Selma::new(domain, map, initial, source, options.selma_remap)
+                        .with_cell_samples(samples),
+                ))
             }
         }
     }
@@ -462,7 +471,8 @@ impl DensityModel {
                 other => other.sample(grid),
             }
         }
-        gridless::write_grouped(&gridless, &mut targets);
+        let centres = vec![CellSamples::Centre; gridless.len()];
+        gridless::write_grouped(&gridless, &centres, &mut targets);
     }
 
     /// An immutable snapshot of the current density as a field (for
@@ -604,6 +614,42 @@ pub(crate) fn wrap_world(d: &Domain, p: Vec3) -> Vec3 {
         wrap1(p.y, o.y, s.y),
         wrap1(p.z, o.z, s.z),
     )
+}
+
+/// [`wrap_world`] for many points of one box, its bounds computed once:
+/// the same bits.
+#[derive(Clone, Copy)]
+pub(crate) struct BoxWrap {
+    domain: Domain,
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl BoxWrap {
+    pub(crate) fn new(domain: &Domain) -> Self {
+        let (lo, size) = (domain.origin, domain.size());
+        Self {
+            domain: *domain,
+            lo,
+            hi: lo + size,
+        }
+    }
+
+    /// Whether `p` lies in the box, `lo ≤ p < hi`: where `wrap_world` keeps it.
+    #[inline(always)]
+    pub(crate) fn inside(&self, p: Vec3) -> bool {
+        (p.cmpge(self.lo) & p.cmplt(self.hi)).bitmask() == 0b111
+    }
+
+    /// `p` wrapped into the box (unchanged inside it, as `wrap_world`).
+    #[inline(always)]
+    pub(crate) fn wrap(&self, p: Vec3) -> Vec3 {
+        if self.inside(p) {
+            p
+        } else {
+            wrap_world(&self.domain, p)
+        }
+    }
 }
 
 #[cfg(test)]

@@ -107,7 +107,8 @@ use std::sync::Arc;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{wrap_world, Buffer, StepInput};
+use super::cell_average::{cell_points, cell_values, sub_points, sub_sum, CellSamples, SUB};
+use super::{BoxWrap, Buffer, DensityMode, StepInput};
 use crate::advection::departure_points;
 use crate::advection::semi_lagrangian::{advect_map, sample_points};
 use crate::boundary::WallStop;
@@ -127,18 +128,6 @@ const FORWARD_ITERATIONS: usize = 1;
 /// evaluation: a chunk's 2×2×2 sub-points (256) stay in the L1 cache, and
 /// nothing is allocated.
 const CHUNK: usize = 32;
-
-/// Offsets of the 2×2×2 sub-points of a cell, in cells.
-const SUB: [Vec3; 8] = [
-    Vec3::new(-0.25, -0.25, -0.25),
-    Vec3::new(0.25, -0.25, -0.25),
-    Vec3::new(-0.25, 0.25, -0.25),
-    Vec3::new(0.25, 0.25, -0.25),
-    Vec3::new(-0.25, -0.25, 0.25),
-    Vec3::new(0.25, -0.25, 0.25),
-    Vec3::new(-0.25, 0.25, 0.25),
-    Vec3::new(0.25, 0.25, 0.25),
-];
 
 /// The map's displacement `D = X − x` on the map lattice, world units, one
 /// cell-centred grid per component.
@@ -575,6 +564,8 @@ pub struct Selma {
     fresh: Option<ScalarGrid>,
     source: Option<Scalar>,
     restarts: usize,
+    /// Points per cell of the cache ([`CellSamples`]).
+    samples: CellSamples,
     centres: ScalarGrid,
 }
 
@@ -606,16 +597,28 @@ impl Selma {
             initial,
             walls: None,
         };
-        let centres = ScalarGrid::from_field(domain, &field);
-        Self {
+        let mut gas = Self {
             field,
             map: Some(Box::new(own)),
             remap,
             fresh: (remap > 0.0).then(|| ScalarGrid::zeros(map)),
             source,
             restarts: 0,
-            centres,
+            samples: CellSamples::default_for(DensityMode::Selma),
+            centres: ScalarGrid::zeros(domain),
+        };
+        gas.evaluate_centres();
+        gas
+    }
+
+    /// The same density cached with `samples` points per cell (the cache
+    /// re-evaluated).
+    pub fn with_cell_samples(mut self, samples: CellSamples) -> Self {
+        if samples != self.samples {
+            self.samples = samples;
+            self.evaluate_centres();
         }
+        self
     }
 
     /// The map grid.
@@ -670,12 +673,17 @@ impl Selma {
         (&self.field, fresh.as_slice_mut())
     }
 
-    /// Evaluate `ρ₀∘X + R∘X` at every velocity cell centre (the buoyancy
-    /// input). When the map grid is the velocity grid its nodes are these
-    /// centres, and `X = x + D` is read off the lattice, not interpolated.
+    /// Evaluate `ρ₀∘X + R∘X` on every velocity cell (the buoyancy input and
+    /// the saved volumes): the cell averages `ρ̄_c ≈ (1/8) Σ_s ρ(X(x_c +
+    /// δ_s Δx))` over the 2×2×2 sub-cell points, or the centre values
+    /// ([`CellSamples`], [`super::cell_average`]); zero in the cells whose
+    /// centres lie inside the walls. At the centres, when the map grid is
+    /// the velocity grid its nodes are these centres, and `X = x + D` is
+    /// read off the lattice, not interpolated.
     pub fn evaluate_centres(&mut self) {
         let d = *self.centres.domain();
         let field = &self.field;
+        let samples = self.samples;
         let md = *field.disp.domain();
         let into_box = BoxWrap::new(&md);
         let [dx, dy, dz] = field.disp.slices();
@@ -685,21 +693,28 @@ impl Selma {
             .par_chunks_mut(slab)
             .enumerate()
             .for_each_init(
-                || (Vec::new(), Vec::new()),
-                |(centres, xi): &mut (Vec<Vec3>, Vec<Vec3>), (k, out)| {
+                || (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
+                |(centres, points, xi, values), (k, out)| {
                     d.slab_centers(k, centres);
                     xi.clear();
-                    if md == d {
+                    if md == d && samples == CellSamples::Centre {
                         let nodes = k * slab..;
                         xi.extend(
                             (centres.iter().zip(nodes))
                                 .map(|(&p, n)| into_box.wrap(p + Vec3::new(dx[n], dy[n], dz[n]))),
                         );
                     } else {
-                        xi.resize(centres.len(), Vec3::ZERO);
-                        field.map_batch(centres, xi);
+                        cell_points(&d, samples, centres, points);
+                        xi.resize(points.len(), Vec3::ZERO);
+                        field.map_batch(points, xi);
                     }
-                    field.at_reference(xi, out);
+                    values.resize(xi.len(), 0.0);
+                    field.at_reference(xi, values);
+                    let sampled = match samples {
+                        CellSamples::Centre => &centres[..],
+                        CellSamples::Average => &points[..],
+                    };
+                    cell_values(samples, values, (sampled, field.walls.as_deref()), out);
                     field.clear_inside(centres, out);
                 },
             );
@@ -1002,27 +1017,6 @@ pub struct MapState {
     pub lattice: VectorGrid,
 }
 
-/// The 2×2×2 sub-points of a map cell around each of `centres`, wrapped
-/// into the box, eight per centre, offset by offset: sub-point `s` of
-/// centre `m` at `out[s·n + m]` (`n` centres), so that a run of sixteen
-/// lanes holds one offset of consecutive centres — points of one lattice
-/// row, which the sampling kernels fetch by a row window.
-fn sub_points(md: &Domain, centres: &[Vec3], out: &mut [Vec3]) {
-    let n = centres.len();
-    assert_eq!(out.len(), 8 * n, "sub_points: eight per centre");
-    let into_box = BoxWrap::new(md);
-    let offsets = SUB.map(|s| s * md.cell);
-    let (low, high) = (offsets[0], offsets[7]);
-    for (m, &c) in centres.iter().enumerate() {
-        // Every sub-point's coordinates are the lowest's or the highest's:
-        // when those two are inside the box, all eight are.
-        let inside = into_box.inside(c + low) && into_box.inside(c + high);
-        for (s, &o) in offsets.iter().enumerate() {
-            out[s * n + m] = if inside { c + o } else { into_box.wrap(c + o) };
-        }
-    }
-}
-
 /// A box holding the [`sub_points`] of every one of `centres` when none
 /// of them wraps (rounding is monotone: `c + o` lies between the lowest
 /// centre plus the lowest offset and the highest plus the highest); `None`
@@ -1033,14 +1027,6 @@ fn sub_bounds(md: &Domain, centres: &[Vec3]) -> Option<Bounds> {
     let b = Bounds::of(centres)?;
     let (min, max) = (b.min + low, b.max + high);
     (into_box.inside(min) && into_box.inside(max)).then_some(Bounds { min, max })
-}
-
-/// The sum of centre `m`'s eight sub-point values, laid out as
-/// [`sub_points`] lays out the points, in the offsets' order.
-#[inline(always)]
-fn sub_sum(values: &[f32], m: usize) -> f32 {
-    let n = values.len() / 8;
-    (0..8).map(|s| values[s * n + m]).sum::<f32>()
 }
 
 /// The periodic image of the offset `d` nearest zero, `d − L·round(d/L)`
@@ -1054,42 +1040,6 @@ fn nearest_image(d: Vec3, size: Vec3, half: Vec3) -> Vec3 {
         d
     } else {
         d - size * (d / size).round()
-    }
-}
-
-/// [`wrap_world`] for many points of one box, its bounds computed once:
-/// the same bits.
-#[derive(Clone, Copy)]
-struct BoxWrap {
-    domain: Domain,
-    lo: Vec3,
-    hi: Vec3,
-}
-
-impl BoxWrap {
-    fn new(domain: &Domain) -> Self {
-        let (lo, size) = (domain.origin, domain.size());
-        Self {
-            domain: *domain,
-            lo,
-            hi: lo + size,
-        }
-    }
-
-    /// Whether `p` lies in the box, `lo ≤ p < hi`: where `wrap_world` keeps it.
-    #[inline(always)]
-    fn inside(&self, p: Vec3) -> bool {
-        (p.cmpge(self.lo) & p.cmplt(self.hi)).bitmask() == 0b111
-    }
-
-    /// `p` wrapped into the box (unchanged inside it, as `wrap_world`).
-    #[inline(always)]
-    fn wrap(&self, p: Vec3) -> Vec3 {
-        if self.inside(p) {
-            p
-        } else {
-            wrap_world(&self.domain, p)
-        }
     }
 }
 
@@ -1111,6 +1061,7 @@ fn reset_lattice(lattice: &mut VectorGrid) {
 mod tests {
     use super::*;
     use crate::advection::{departure_point, Backtrace, Departures};
+    use crate::density::wrap_world;
     use crate::grid::{BoxKind, FaceGrid};
 
     /// A shear-and-swirl velocity on a 16³ box of edge 8.

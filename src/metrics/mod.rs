@@ -1,14 +1,17 @@
 //! Diagnostics computed on grids: divergence, mirror symmetry of densities
-//! and velocity, the divergence tracers feel ([`interpolant`]) and where the
-//! energy sits in wavenumber ([`spectrum`]); and of rendered pictures, their
+//! and velocity, the divergence tracers feel ([`interpolant`]), where the
+//! energy sits in wavenumber ([`spectrum`]) and how much of a density's mass
+//! lies in isolated blobs ([`blobs`]); and of rendered pictures, their
 //! sharpness and the spread of their error ([`picture`]).
 
+pub mod blobs;
 pub mod interpolant;
 pub mod picture;
 pub mod spectrum;
 
 use rayon::prelude::*;
 
+pub use blobs::{isolated_mass_share, BLOB_CELLS, BLOB_LEVEL};
 pub use interpolant::{face_interpolant_divergence, interpolant_divergence, probe_points};
 pub use spectrum::SpectralShare;
 

@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use toml::Table;
 
 use crate::advection::{AdvectionOptions, Backtrace, Limiter, QuickOptions, Scheme};
-use crate::density::{DensityMode, DensityOptions, DEFAULT_SELMA_REMAP};
+use crate::density::{CellSamples, DensityMode, DensityOptions, DEFAULT_SELMA_REMAP};
 use crate::domain::{Domain, MIN_CELLS};
 use crate::error::{check_non_negative, check_positive, InputError};
 use crate::grid::BoxKind;
@@ -58,6 +58,12 @@ pub struct SolverConfig {
     /// SELMA: re-anchor the map when its tracked lattice has deformed by more
     /// than this many map cells (0: never).
     pub selma_remap: f32,
+    /// Gridless and SELMA: points per cell when the density is put on the
+    /// grid for the buoyancy force and the saved volumes — `8`, the cell
+    /// average over 2×2×2 sub-cell points (band-limited; the gridless
+    /// default), or `1`, the point sample at the cell centre (the SELMA
+    /// default; for gridless it aliases sub-cell filaments into specks).
+    pub cell_samples: Option<CellSamples>,
     /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
     pub sample_res: Option<usize>,
     /// Write volumes and a preview every this many frames (0: metrics only).
@@ -92,6 +98,7 @@ impl Default for SolverConfig {
             density: DensityMode::Gridded,
             map_res: None,
             selma_remap: DEFAULT_SELMA_REMAP,
+            cell_samples: None,
             sample_res: None,
             save_every: 10,
             metrics_every: 10,
@@ -114,6 +121,7 @@ impl SolverConfig {
             mode: self.density,
             map_res: self.map_res,
             selma_remap: self.selma_remap,
+            cell_samples: self.cell_samples,
         }
     }
 
