@@ -45,7 +45,7 @@ pub enum Command {
     Render(crate::render_command::RenderArgs),
     /// Convert a run's saved frames to OpenVDB (`vdb`) or ParaView (`paraview`) files.
     Export(crate::export::ExportArgs),
-    /// Sample a divergence-free noise onto an N³ grid (`noise.npy` + slice PNG).
+    /// Sample a noise velocity field onto an N³ grid (`noise.npy` + slice PNG): the divergence-free kinds (simulation, curl, bitangent, Stam–Fiume) and, for comparison, value and Perlin noise, which are not.
     Noise(crate::noise_command::NoiseArgs),
     /// Refresh `paper/paper.md` from `results/` and build it to HTML (pandoc).
     Paper,

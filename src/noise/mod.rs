@@ -64,12 +64,12 @@ use value::{ValueNoise, ValueNoise2};
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum NoiseKind {
-    /// 3D value noise (trilinear random vectors).
+    /// 3D value noise (trilinear random vectors; not divergence-free).
     Value,
-    /// 2D value noise.
+    /// 2D value noise (not divergence-free).
     #[cfg_attr(feature = "clap", value(name = "value-2d"))]
     Value2d,
-    /// Three offset Perlin noises (notes eq 3.9).
+    /// Three offset Perlin noises (notes eq 3.9; not divergence-free).
     Perlin,
     /// Fast simulation noise (000 §3).
     FastSim,
