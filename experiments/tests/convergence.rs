@@ -58,6 +58,11 @@ fn maccormack_is_near_second_order_in_smooth_flow() {
 }
 
 #[test]
+fn gridless_returns_from_the_deformation_at_third_order_in_dt() {
+    assert_order(&cases::deformation_gridless_return(&[48, 96, 192]));
+}
+
+#[test]
 fn taylor_green_navier_stokes_maccormack_is_first_order() {
     assert_order(&cases::taylor_green_maccormack(&[16, 32, 64]));
 }

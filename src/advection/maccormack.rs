@@ -398,6 +398,45 @@ mod tests {
         }
     }
 
+    /// A step edge moving at Courant number `c` in uniform flow: beside the
+    /// edge the corrected values overshoot (above 1 behind it, below 0
+    /// ahead of it) and revert to SL's, which are 1 and 0 there; the first
+    /// cell past the edge gets `c/2 + c²/2` where SL gives `c`. So a sharp
+    /// edge moves about half as far as SL moves it in one step.
+    #[test]
+    fn a_sharp_edge_moves_half_as_far_at_small_courant_numbers() {
+        let n = 32;
+        let d = Domain::new(Vec3::ZERO, 1.0 / n as f32, [n, 4, 4]).unwrap();
+        let c = 0.1f32;
+        let vel = FaceGrid::from_field(
+            d,
+            BoxKind::Periodic,
+            &crate::field::ops::ConstantVector(Vec3::X),
+        );
+        let mut q = ScalarGrid::zeros(d);
+        for (m, v) in q.as_slice_mut().iter_mut().enumerate() {
+            *v = ((m % n) < n / 2) as u8 as f32;
+        }
+        let mut out = ScalarGrid::zeros(d);
+        maccormack_scalar(&q, &vel, c * d.cell, Backtrace::Rk2, &mut out);
+        let row = &out.as_slice()[..n];
+        let edge = n / 2;
+        assert!(
+            (row[edge] - (c / 2.0 + c * c / 2.0)).abs() < 1e-6,
+            "{}",
+            row[edge]
+        );
+        assert_eq!(row[edge - 1], 1.0);
+        assert_eq!(row[edge + 1], 0.0);
+        // The trailing edge (0 → 1 at cell 0) likewise: 1 − c/2 − c²/2.
+        assert!(
+            (row[0] - (1.0 - c / 2.0 - c * c / 2.0)).abs() < 1e-6,
+            "{}",
+            row[0]
+        );
+        assert_eq!(row[n - 1], 0.0);
+    }
+
     /// The faces: a uniform velocity moves itself (every face equal up to
     /// the rounding of the trilinear weights), and the step through `MacCormack::advect` equals the
     /// allocating one; closed-box walls stay zero.
