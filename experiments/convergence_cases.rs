@@ -154,7 +154,24 @@ fn line_grids(n: usize, shift: f32, sampling: Sampling) -> (ScalarGrid, ScalarGr
 /// backtrace (the backtrace is exact for uniform flow).
 pub fn sl_uniform(backtrace: Backtrace, resolutions: &[usize]) -> Study {
     let name = format!("sl_uniform_{backtrace:?}").to_lowercase();
-    let mut study = Study::new(name, 1.0, "Δx (CFL 0.4)");
+    uniform_study(
+        Study::new(name, 1.0, "Δx (CFL 0.4)"),
+        backtrace,
+        resolutions,
+        advect_scalar,
+    )
+}
+
+/// One grid-to-grid step of a scheme: `dst = step(src, vel, Δt, backtrace)`.
+type Step = fn(&ScalarGrid, &FaceGrid, f32, Backtrace, &mut ScalarGrid);
+
+/// [`sl_uniform`]'s problem advected by `step`, filling `study`.
+fn uniform_study(
+    mut study: Study,
+    backtrace: Backtrace,
+    resolutions: &[usize],
+    step: Step,
+) -> Study {
     for &n in resolutions {
         let dt = 0.4 / n as f32;
         let steps = (0.25 / dt).round() as usize;
@@ -163,7 +180,7 @@ pub fn sl_uniform(backtrace: Backtrace, resolutions: &[usize]) -> Study {
         let vel = FaceGrid::from_field(d, BoxKind::Periodic, &FnVector(|_| Vec3::X));
         let mut tmp = ScalarGrid::zeros(d);
         for _ in 0..steps {
-            advect_scalar(&q, &vel, dt, backtrace, &mut tmp);
+            step(&q, &vel, dt, backtrace, &mut tmp);
             std::mem::swap(&mut q, &mut tmp);
         }
         study.h.push(d.cell as f64);
@@ -185,22 +202,8 @@ pub fn sl_uniform(backtrace: Backtrace, resolutions: &[usize]) -> Study {
 /// the same for every backtrace, which is exact in uniform flow).
 pub fn maccormack_uniform(backtrace: Backtrace, resolutions: &[usize]) -> Study {
     let name = format!("maccormack_uniform_{backtrace:?}").to_lowercase();
-    let mut study = Study::new(name, 1.75, "Δx (CFL 0.4)");
-    for &n in resolutions {
-        let dt = 0.4 / n as f32;
-        let steps = (0.25 / dt).round() as usize;
-        let (mut q, exact) = line_grids(n, steps as f32 * dt, Sampling::Point);
-        let d = *q.domain();
-        let vel = FaceGrid::from_field(d, BoxKind::Periodic, &FnVector(|_| Vec3::X));
-        let mut tmp = ScalarGrid::zeros(d);
-        for _ in 0..steps {
-            maccormack_scalar(&q, &vel, dt, backtrace, &mut tmp);
-            std::mem::swap(&mut q, &mut tmp);
-        }
-        study.h.push(d.cell as f64);
-        study.error.push(rms_diff(q.as_slice(), exact.as_slice()));
-    }
-    study
+    let study = Study::new(name, 1.75, "Δx (CFL 0.4)");
+    uniform_study(study, backtrace, resolutions, maccormack_scalar)
 }
 
 /// `steps` unlimited QUICK steps of `q` through the steady velocity `vel`.
@@ -282,12 +285,22 @@ fn rotation_case(n: usize) -> (FaceGrid, ScalarGrid, ScalarGrid, f32, usize) {
 /// give **order 1** overall; RK2 and RK3 remove the first but not the second.
 pub fn sl_rotation(backtrace: Backtrace, resolutions: &[usize]) -> Study {
     let name = format!("sl_rotation_{backtrace:?}").to_lowercase();
-    let mut study = Study::new(name, 1.0, "Δx (Δt = Δx/2)");
+    let study = Study::new(name, 1.0, "Δx (Δt = Δx/2)");
+    rotation_study(study, backtrace, resolutions, advect_scalar)
+}
+
+/// [`sl_rotation`]'s problem advected by `step`, filling `study`.
+fn rotation_study(
+    mut study: Study,
+    backtrace: Backtrace,
+    resolutions: &[usize],
+    step: Step,
+) -> Study {
     for &n in resolutions {
         let (vel, mut q, exact, dt, steps) = rotation_case(n);
         let mut tmp = ScalarGrid::zeros(*q.domain());
         for _ in 0..steps {
-            advect_scalar(&q, &vel, dt, backtrace, &mut tmp);
+            step(&q, &vel, dt, backtrace, &mut tmp);
             std::mem::swap(&mut q, &mut tmp);
         }
         study.h.push(q.domain().cell as f64);
@@ -305,18 +318,8 @@ pub fn sl_rotation(backtrace: Backtrace, resolutions: &[usize]) -> Study {
 /// (32 to 128 cells; the clamp acts only at the blob's peak).
 pub fn maccormack_rotation(backtrace: Backtrace, resolutions: &[usize]) -> Study {
     let name = format!("maccormack_rotation_{backtrace:?}").to_lowercase();
-    let mut study = Study::new(name, 2.0, "Δx (Δt = Δx/2)");
-    for &n in resolutions {
-        let (vel, mut q, exact, dt, steps) = rotation_case(n);
-        let mut tmp = ScalarGrid::zeros(*q.domain());
-        for _ in 0..steps {
-            maccormack_scalar(&q, &vel, dt, backtrace, &mut tmp);
-            std::mem::swap(&mut q, &mut tmp);
-        }
-        study.h.push(q.domain().cell as f64);
-        study.error.push(rms_diff(q.as_slice(), exact.as_slice()));
-    }
-    study
+    let study = Study::new(name, 2.0, "Δx (Δt = Δx/2)");
+    rotation_study(study, backtrace, resolutions, maccormack_scalar)
 }
 
 /// QUICK (unlimited) on [`sl_rotation`]'s problem: the blob a quarter turn
