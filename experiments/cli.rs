@@ -22,6 +22,7 @@ use smokelab::grid::BoxKind;
 use smokelab::io;
 use smokelab::render::camera::parse_image_size;
 use smokelab::scenario::hot_cold::HotColdConfig;
+use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
 use smokelab::scenario::slab_box::SlabBoxConfig;
 use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig};
 
@@ -249,6 +250,46 @@ pub struct SceneFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub boundary_passes: Option<usize>,
+    /// Period of the prescribed flow (deformation: returns at T; zalesak: one turn).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub period: Option<f32>,
+    /// Initial density (deformation, zalesak): a cell-centred f32 or f64
+    /// `.npy` of shape (res, res, res) instead of the scenario's sphere.
+    #[arg(long, value_name = "FILE.npy")]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub initial: Option<PathBuf>,
+}
+
+/// `exact.csv` of a prescribed-flow run: at every saved frame the density
+/// against the exact solution ([`smokelab::scenario::prescribed::Exact`]):
+/// L1 and L∞ return errors at full periods, mass, volume of ρ > ½ and peak.
+struct ExactLog {
+    exact: smokelab::scenario::prescribed::Exact,
+    path: PathBuf,
+    rows: String,
+}
+
+impl ExactLog {
+    fn new(exact: smokelab::scenario::prescribed::Exact, out: &std::path::Path) -> Self {
+        Self {
+            exact,
+            path: out.join("exact.csv"),
+            rows: "frame,t,l1,linf,mass,volume_half,peak\n".into(),
+        }
+    }
+
+    /// One row for the state `sim` reached, and the file rewritten whole.
+    fn record(&mut self, sim: &smokelab::simulation::Simulation) -> Result<()> {
+        use std::io::Write as _;
+        let (t, dt) = (sim.time(), sim.params.dt);
+        let m = self.exact.measure(sim.gases[0].density(), t, dt);
+        self.rows += &format!(
+            "{},{t},{},{},{},{},{}\n",
+            sim.step_index, m.l1, m.linf, m.mass, m.volume, m.peak
+        );
+        io::write_atomic(&self.path, |w| Ok(w.write_all(self.rows.as_bytes())?))
+    }
 }
 
 fn is_false(b: &bool) -> bool {
@@ -304,6 +345,8 @@ fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
     vec![
         (HotColdConfig::NAME, config::keys::<HotColdConfig>()),
         (SlabBoxConfig::NAME, config::keys::<SlabBoxConfig>()),
+        (DeformationConfig::NAME, config::keys::<DeformationConfig>()),
+        (ZalesakConfig::NAME, config::keys::<ZalesakConfig>()),
     ]
 }
 
@@ -393,6 +436,8 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
     match args.scenario {
         ScenarioKind::HotCold => run_config(args, &args.resolve::<HotColdConfig>()?),
         ScenarioKind::SlabBox => run_config(args, &args.resolve::<SlabBoxConfig>()?),
+        ScenarioKind::Deformation => run_config(args, &args.resolve::<DeformationConfig>()?),
+        ScenarioKind::Zalesak => run_config(args, &args.resolve::<ZalesakConfig>()?),
     }
 }
 
@@ -455,9 +500,13 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         render,
         [args.vdb, args.paraview],
     );
-    let summary = match &checkpoints {
-        Some(c) => run::run_checkpointed(&mut sim, &opts, config, s.seed, c)?,
-        None => run::run(&mut sim, &opts, config, s.seed)?,
+    let mut exact = config.exact(&sim).map(|e| ExactLog::new(e, &out));
+    let summary = match (&checkpoints, exact.as_mut()) {
+        (Some(c), _) => run::run_checkpointed(&mut sim, &opts, config, s.seed, c)?,
+        (None, Some(log)) => {
+            run::run_with(&mut sim, &opts, config, s.seed, |sim, _| log.record(sim))?
+        }
+        (None, None) => run::run(&mut sim, &opts, config, s.seed)?,
     };
     println!(
         "{} ({} density): {} steps at {}³ in {:.1} s; wrote {}",
@@ -518,6 +567,8 @@ fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
     match checkpoint.run().scenario {
         ScenarioKind::HotCold => resume_config::<HotColdConfig>(args, dir, &checkpoint),
         ScenarioKind::SlabBox => resume_config::<SlabBoxConfig>(args, dir, &checkpoint),
+        ScenarioKind::Deformation => resume_config::<DeformationConfig>(args, dir, &checkpoint),
+        ScenarioKind::Zalesak => resume_config::<ZalesakConfig>(args, dir, &checkpoint),
     }
 }
 

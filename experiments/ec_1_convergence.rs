@@ -110,11 +110,16 @@ fn studies(size: Size) -> Vec<Study> {
         studies.push(cases::sl_uniform(bt, &l.line));
         studies.push(cases::sl_rotation(bt, &l.plane));
     }
+    for bt in Backtrace::ALL {
+        studies.push(cases::maccormack_uniform(bt, &l.line));
+        studies.push(cases::maccormack_rotation(bt, &l.plane));
+    }
     studies.push(cases::quick_uniform(Sampling::Point, &l.line_quick));
     studies.push(cases::quick_uniform(Sampling::CellAverage, &l.line_quick));
     studies.push(cases::quick_rotation(&l.plane_quick));
     studies.push(cases::taylor_green_sl(&l.plane));
     studies.push(cases::taylor_green_quick(&l.plane));
+    studies.push(cases::taylor_green_maccormack(&l.plane));
     studies.push(cases::projection_mac(&l.cube));
     for bt in Backtrace::ALL {
         let steps = if bt == Backtrace::Rk3 {

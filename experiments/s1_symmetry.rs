@@ -283,10 +283,7 @@ struct SummaryRow {
 }
 
 fn scheme_name(s: Scheme) -> &'static str {
-    match s {
-        Scheme::Sl => "sl",
-        Scheme::Quick => "quick",
-    }
+    s.name()
 }
 
 fn run(ctx: &Context) -> Result<()> {

@@ -37,7 +37,7 @@ use crate::density::probe::cell_averages;
 use crate::density::{total_bytes, DensityModel, DensityOptions, DensityState, StepInput};
 use crate::domain::Domain;
 use crate::error::InputError;
-use crate::field::Scalar;
+use crate::field::{Scalar, VectorField};
 use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
 use crate::pressure::obstacles::{CgReport, ObstacleProjection, TOLERANCE};
 use crate::pressure::PressureSolver;
@@ -143,6 +143,24 @@ pub struct SimulationState {
     pub face_potential: Option<Vec<f32>>,
 }
 
+/// A velocity given for all time, `u(x, t)` in world units: a
+/// prescribed-flow scenario's ([`crate::scenario::prescribed`]). A
+/// simulation carrying one samples it on the faces every step instead of
+/// advecting, forcing and projecting the velocity.
+pub trait PrescribedVelocity: Send + Sync {
+    /// The velocity at world point `p` and time `t`.
+    fn at(&self, p: Vec3, t: f32) -> Vec3;
+}
+
+/// A [`PrescribedVelocity`] frozen at one time, as a field.
+struct AtTime<'a>(&'a dyn PrescribedVelocity, f32);
+
+impl VectorField for AtTime<'_> {
+    fn eval(&self, p: Vec3) -> Vec3 {
+        self.0.at(p, self.1)
+    }
+}
+
 /// Physical and numerical parameters of the step.
 #[derive(Clone, Copy, Debug)]
 pub struct StepParams {
@@ -180,6 +198,8 @@ pub struct Simulation {
     pressure: PressureSolver,
     /// The obstacle-aware pressure solve, with obstacles and the exact method.
     obstacle_projection: Option<ObstacleProjection>,
+    /// A velocity given for all time ([`Self::with_prescribed_velocity`]).
+    prescribed: Option<Arc<dyn PrescribedVelocity>>,
 }
 
 impl Simulation {
@@ -196,7 +216,23 @@ impl Simulation {
             advector: Advector::new(domain, &AdvectionOptions::default(), params.backtrace),
             pressure: PressureSolver::new(domain, BoxKind::Periodic),
             obstacle_projection: None,
+            prescribed: None,
         }
+    }
+
+    /// The same simulation with its velocity prescribed: each step sets the
+    /// faces to `flow` at the step's midpoint time `(n + ½)Δt` (each
+    /// component sampled at its face centres, [`FaceGrid::write_field`]) and
+    /// moves the gases through it; the velocity is neither advected nor
+    /// forced nor projected, so gravity and viscosity play no part.
+    pub fn with_prescribed_velocity(mut self, flow: Arc<dyn PrescribedVelocity>) -> Self {
+        self.prescribed = Some(flow);
+        self
+    }
+
+    /// Whether the velocity is prescribed ([`Self::with_prescribed_velocity`]).
+    pub fn is_prescribed(&self) -> bool {
+        self.prescribed.is_some()
     }
 
     /// The same simulation at rest in a box of `kind`: closed walls hold the
@@ -211,7 +247,7 @@ impl Simulation {
         let d = *self.domain();
         if kind == BoxKind::Closed {
             assert!(
-                matches!(self.advector, Advector::SemiLagrangian { .. }),
+                !matches!(self.advector, Advector::Quick { .. }),
                 "closed box: QUICK is periodic"
             );
             assert!(
@@ -295,6 +331,15 @@ impl Simulation {
     /// sub-steps; the state is then unchanged.
     pub fn try_step(&mut self) -> Result<(), CflError> {
         let mut times = StageTimes::default();
+        if let Some(flow) = self.prescribed.clone() {
+            let t = (self.step_index as f32 + 0.5) * self.params.dt;
+            self.velocity.write_field(&AtTime(&*flow, t));
+            timed(&mut times.advect, || self.advect())?;
+            timed(&mut times.density, || self.evaluate_densities());
+            self.step_index += 1;
+            self.times = times;
+            return Ok(());
+        }
         timed(&mut times.advect, || self.advect())?;
         timed(&mut times.density, || self.evaluate_densities());
         timed(&mut times.force, || self.add_buoyancy());
@@ -378,7 +423,10 @@ impl Simulation {
                 gas.budget.cleared += rho.total() - kept;
             }
         }
-        std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
+        // A prescribed velocity stays the one the step moved the gases by.
+        if self.prescribed.is_none() {
+            std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
+        }
         Ok(())
     }
 
@@ -503,7 +551,7 @@ impl Simulation {
             obstacle_pressure: (self.obstacle_projection.as_ref()).map(|c| c.pressure().to_vec()),
             face_potential: match &self.advector {
                 Advector::Quick { quick, .. } => quick.warm_start().map(<[f32]>::to_vec),
-                Advector::SemiLagrangian { .. } => None,
+                Advector::SemiLagrangian { .. } | Advector::MacCormack(_) => None,
             },
         }
     }
@@ -532,7 +580,7 @@ impl Simulation {
         let potential_fits = match (&mut self.advector, &state.face_potential) {
             (Advector::Quick { quick, .. }, Some(p)) => quick.set_warm_start(p),
             (Advector::Quick { quick, .. }, None) => quick.warm_start().is_none(),
-            (Advector::SemiLagrangian { .. }, p) => p.is_none(),
+            (Advector::SemiLagrangian { .. } | Advector::MacCormack(_), p) => p.is_none(),
         };
         if !(pressure_fits && potential_fits) {
             return Err(misfit());

@@ -43,6 +43,9 @@ fn smooth_error(n: usize, cfl: f32, scheme: advection::Scheme) -> (f64, f64) {
         match scheme {
             advection::Scheme::Quick => quick.advect_scalar(&q, &mut tmp, Limiter::None),
             advection::Scheme::Sl => advection::interpolate_scalar(&q, &dep, &mut tmp),
+            advection::Scheme::MacCormack => {
+                advection::maccormack_scalar(&q, &vel, dt, Backtrace::Rk2, &mut tmp)
+            }
         }
         std::mem::swap(&mut q, &mut tmp);
     }

@@ -10,7 +10,9 @@
 //! | `compose(f, X)` | [`fa::compose`], [`fa::compose_vector`], [`fa::compose_matrix`] |
 //! | `grad(f)`, `grad(f, h)`, `hessian(f, h)` | [`fa::grad`], [`fa::hessian`]; `grad` of a vectorfield is [`fa::jacobian`], so `grad(grad(ℓ))` is the Hessian (eq 4.4) |
 //! | `levelsetsurface(ℓ, n)` | [`fa::levelset_surface`] (eq 3.3) |
-//! | `abs`, `sqrt`, `clamp`, `min`, `max`, `normalize` | [`fa`]'s pointwise operations |
+//! | `abs`, `sqrt`, `clamp`, `min`, `max`, `normalize` | [`fa`]'s pointwise operations (`min`/`max` of two fields or a field and a number) |
+//! | `sin`, `cos`, `exp`, `tanh` of a scalarfield (or a number) | [`fa::sin`], [`fa::cos`], [`fa::exp`], [`fa::tanh`] |
+//! | `v.x`, `v.y`, `v.z`, `component(v, axis)` of a vectorfield or vectorcache | [`fa::component`] (a cache's trilinear point query) |
 //! | `advect(f, u, dt)` — fields | [`ops::advect`], [`ops::advect_vector`] (Euler backtrace) |
 //! | `advect(f, velocity, dt)` — `velocity` a cache | `f ∘` the library's departure map ([`departure_point`]), the gridless density of §6.2 |
 //! | `advect(cache, velocity, dt)` | [`Departures::trace`] + [`interpolate_scalar`]: the semi-Lagrangian sweep of `Simulation::advect`, departures shared by the caches of one step |
@@ -299,6 +301,54 @@ pub fn register(engine: &mut Engine) {
         sf(fa::max(a.field, b.field))
     });
     engine.register_fn("normalize", |v: VectorF| VectorF(fa::normalize(v.0)));
+    engine.register_fn("sin", move |f: ScalarF| sf(fa::sin(f.field)));
+    engine.register_fn("cos", move |f: ScalarF| sf(fa::cos(f.field)));
+    engine.register_fn("exp", move |f: ScalarF| sf(fa::exp(f.field)));
+    engine.register_fn("tanh", move |f: ScalarF| sf(fa::tanh(f.field)));
+    // Rhai's own `sin` … take a float; an integer argument is one too.
+    engine.register_fn("sin", |x: INT| (x as FLOAT).sin());
+    engine.register_fn("cos", |x: INT| (x as FLOAT).cos());
+    engine.register_fn("exp", |x: INT| (x as FLOAT).exp());
+    engine.register_fn("tanh", |x: INT| (x as FLOAT).tanh());
+    macro_rules! min_max_number {
+        ($($t:ty),*) => {$(
+            engine.register_fn("min", move |a: ScalarF, b: $t| sf(fa::min(a.field, ops::constant(b as f32))));
+            engine.register_fn("min", move |b: $t, a: ScalarF| sf(fa::min(ops::constant(b as f32), a.field)));
+            engine.register_fn("max", move |a: ScalarF, b: $t| sf(fa::max(a.field, ops::constant(b as f32))));
+            engine.register_fn("max", move |b: $t, a: ScalarF| sf(fa::max(ops::constant(b as f32), a.field)));
+        )*};
+    }
+    min_max_number!(FLOAT, INT);
+    // Components of a vector field, a velocity cache's point query, a constant.
+    for (axis, name) in ["x", "y", "z"].into_iter().enumerate() {
+        engine.register_get(name, move |v: &mut VectorF| {
+            sf(fa::component(v.0.clone(), axis))
+        });
+        engine.register_get(name, move |v: &mut VectorCache| {
+            let u: Vector = v.0.clone();
+            sf(fa::component(u, axis))
+        });
+        engine.register_get(name, move |v: &mut V3| v.0[axis] as FLOAT);
+    }
+    let axis_of = |axis: INT| -> Fallible<usize> {
+        match axis {
+            0..=2 => Ok(axis as usize),
+            _ => Err(format!("component: axis {axis}; expected 0, 1 or 2 (x, y, z)").into()),
+        }
+    };
+    engine.register_fn(
+        "component",
+        move |v: VectorF, axis: INT| -> Fallible<ScalarF> {
+            Ok(sf(fa::component(v.0, axis_of(axis)?)))
+        },
+    );
+    engine.register_fn(
+        "component",
+        move |v: VectorCache, axis: INT| -> Fallible<ScalarF> {
+            let u: Vector = v.0;
+            Ok(sf(fa::component(u, axis_of(axis)?)))
+        },
+    );
 
     // advect, by the kinds of its arguments.
     engine.register_fn("advect", move |f: ScalarF, u: VectorF, dt: FLOAT| {

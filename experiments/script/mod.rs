@@ -31,6 +31,9 @@ pub mod map;
 pub mod output;
 pub mod types;
 
+#[cfg(test)]
+mod tests;
+
 use std::cell::RefCell;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -14,7 +14,8 @@
 //! Every operator builds a node of the library's field graph (or, for
 //! caches, does one native pass over a grid); nothing here is called per
 //! point. Operators (all overloaded for `float` and `int` numbers):
-//! `+ − * /` between fields, fields and numbers, caches and numbers; unary
+//! `+ − * /` between fields, fields and numbers, caches and numbers
+//! (`vectorcache * k` scales every face); unary
 //! `−`; `vectorfield * vectorfield` is the dot product (the notes'
 //! `spherecenter*spherecenter`), `vectorfield * matrixfield` the row vector
 //! `vᵀM`, so `B*M*B` is eq 4.9's `B·M·B`; `^` and `**` are the power (the
@@ -176,6 +177,15 @@ fn map_cache(mut a: ScalarCache, f: impl Fn(f32) -> f32 + Sync) -> ScalarCache {
         .as_slice_mut()
         .par_iter_mut()
         .for_each(|v| *v = f(*v));
+    a
+}
+
+/// `k u` on every face (in place when `a` is not shared).
+fn scale_faces(mut a: VectorCache, k: f32) -> VectorCache {
+    let out = Arc::make_mut(&mut a.0);
+    for axis in 0..3 {
+        out.slice_mut(axis).par_iter_mut().for_each(|v| *v *= k);
+    }
     a
 }
 
@@ -362,6 +372,9 @@ pub fn register(engine: &mut Engine) {
             engine.register_fn("/", |a: V3, b: $t| V3(a.0 / b as f32));
             engine.register_fn("*", |a: ScalarCache, b: $t| map_cache(a, |x| x * b as f32));
             engine.register_fn("*", |b: $t, a: ScalarCache| map_cache(a, |x| b as f32 * x));
+            engine.register_fn("*", |a: VectorCache, b: $t| scale_faces(a, b as f32));
+            engine.register_fn("*", |b: $t, a: VectorCache| scale_faces(a, b as f32));
+            engine.register_fn("/", |a: VectorCache, b: $t| scale_faces(a, 1.0 / b as f32));
         )*};
     }
     numbers!(FLOAT, INT);

@@ -50,6 +50,24 @@ fn quick_uniform_flow_is_second_order_and_beats_semi_lagrangian() {
 }
 
 #[test]
+fn maccormack_is_near_second_order_in_smooth_flow() {
+    for bt in Backtrace::ALL {
+        assert_order(&cases::maccormack_uniform(bt, &[32, 64, 128, 256]));
+        assert_order(&cases::maccormack_rotation(bt, &[32, 64, 128]));
+    }
+}
+
+#[test]
+fn gridless_returns_from_the_deformation_at_third_order_in_dt() {
+    assert_order(&cases::deformation_gridless_return(&[48, 96, 192]));
+}
+
+#[test]
+fn taylor_green_navier_stokes_maccormack_is_first_order() {
+    assert_order(&cases::taylor_green_maccormack(&[16, 32, 64]));
+}
+
+#[test]
 fn quick_rotation_is_second_order() {
     assert_order(&cases::quick_rotation(&[32, 64, 128]));
 }
@@ -113,8 +131,9 @@ fn c1_default_studies_are_within_their_bands() {
     )
     .expect("valid manifest");
     let studies = manifest["extra"].as_array().expect("one entry per study");
-    // 19 studies: SL ×6, QUICK ×3, Taylor–Green ×2, projection, gridless ×4, SELMA, curl ×2.
-    assert!(studies.len() >= 19, "only {} studies", studies.len());
+    // 26 studies: SL ×6, MacCormack ×6, QUICK ×3, Taylor–Green ×3, projection, gridless ×4,
+    // SELMA, curl ×2.
+    assert!(studies.len() >= 26, "only {} studies", studies.len());
     let failed: Vec<&serde_json::Value> = studies.iter().filter(|s| s["pass"] != true).collect();
     assert!(failed.is_empty(), "outside the band: {failed:?}");
 }

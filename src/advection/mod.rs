@@ -6,6 +6,10 @@
 //! - [`quick`] is the notes' other scheme (ch. 6 introduction): flux-form
 //!   finite volumes with Leonard's quadratic upwind face values, SSP-RK3 in
 //!   time, automatic CFL sub-steps, and an optional ULTIMATE limiter.
+//! - [`maccormack`] is Selle et al.'s (2008) MacCormack scheme on top of the
+//!   semi-Lagrangian steps: a forward and a backward step, half their round
+//!   trip's error taken off, clamped to the forward stencil's range — second
+//!   order in smooth flow, the stronger gridded baseline.
 //!
 //! [`Scheme`] chooses between them; an [`Advector`] holds the chosen scheme's
 //! per-step state (departure points or frozen face velocities) so that every
@@ -17,6 +21,7 @@ pub(crate) mod simd;
 #[cfg(target_arch = "x86_64")]
 mod simd512;
 mod lattice;
+pub mod maccormack;
 pub mod quick;
 pub mod semi_lagrangian;
 
@@ -24,6 +29,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::domain::Domain;
 use crate::grid::{FaceGrid, ScalarGrid};
+pub use maccormack::{maccormack_faces, maccormack_scalar, MacCormack};
 pub use quick::{CflError, Limiter, Quick, QuickOptions};
 pub(crate) use semi_lagrangian::departure_points_wrapped;
 pub use semi_lagrangian::{
@@ -60,11 +66,31 @@ pub enum Scheme {
     Sl,
     /// QUICK finite volumes with SSP-RK3 and CFL sub-steps ([`quick`]).
     Quick,
+    /// MacCormack (Selle et al. 2008) on the semi-Lagrangian steps, with
+    /// the min/max clamp ([`maccormack`]).
+    #[serde(rename = "maccormack")]
+    #[cfg_attr(feature = "clap", value(name = "maccormack"))]
+    MacCormack,
 }
 
 impl Scheme {
     /// Every variant, for tests and listings.
-    pub const ALL: [Scheme; 2] = [Scheme::Sl, Scheme::Quick];
+    pub const ALL: [Scheme; 3] = [Scheme::Sl, Scheme::Quick, Scheme::MacCormack];
+
+    /// The name on the command line and in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            Scheme::Sl => "sl",
+            Scheme::Quick => "quick",
+            Scheme::MacCormack => "maccormack",
+        }
+    }
+}
+
+impl std::fmt::Display for Scheme {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// Everything that selects and tunes the advection of a simulation.
@@ -105,6 +131,9 @@ pub enum Advector {
         /// Limiter applied to densities.
         density_limiter: Limiter,
     },
+    /// MacCormack: forward and backward semi-Lagrangian steps, corrected
+    /// and clamped; its scratch kept between steps.
+    MacCormack(Box<MacCormack>),
 }
 
 impl Advector {
@@ -116,6 +145,7 @@ impl Advector {
                 quick: Box::new(Quick::new(domain, options.quick)),
                 density_limiter: options.density_limiter,
             },
+            Scheme::MacCormack => Advector::MacCormack(Box::new(MacCormack::new(backtrace))),
         }
     }
 
@@ -155,13 +185,15 @@ impl Advector {
                 }
                 quick.advect_faces(vel, vel_out);
             }
+            Advector::MacCormack(mc) => mc.advect(vel, dt, srcs, dsts, vel_out),
         }
         Ok(())
     }
 
     /// Mark obstacle cells. QUICK closes every face touching one (no flux
     /// into or out of obstacles); the semi-Lagrangian scheme, as in the notes,
-    /// keeps interpolating across obstacles and relies on the boundary rule.
+    /// keeps interpolating across obstacles and relies on the boundary rule,
+    /// and so does MacCormack.
     pub fn set_solid(&mut self, solid: &[bool]) {
         if let Advector::Quick { quick, .. } = self {
             quick.set_solid(solid);
@@ -173,15 +205,15 @@ impl Advector {
     /// relative to the largest face Courant number (`None` for SL or without obstacles).
     pub fn face_projection_stats(&self) -> Option<(usize, f32)> {
         match self {
-            Advector::SemiLagrangian { .. } => None,
+            Advector::SemiLagrangian { .. } | Advector::MacCormack(_) => None,
             Advector::Quick { quick, .. } => quick.face_projection_stats(),
         }
     }
 
-    /// Sub-steps of the last step (always 1 for SL).
+    /// Sub-steps of the last step (always 1 for SL and MacCormack).
     pub fn substeps(&self) -> usize {
         match self {
-            Advector::SemiLagrangian { .. } => 1,
+            Advector::SemiLagrangian { .. } | Advector::MacCormack(_) => 1,
             Advector::Quick { quick, .. } => quick.substeps(),
         }
     }

@@ -75,6 +75,14 @@ pub enum Unary {
     Clamp(f32, f32),
     /// `f^e` for a constant `e` (NaN where `f < 0` and `e` is not whole).
     Pow(f32),
+    /// `sin f`.
+    Sin,
+    /// `cos f`.
+    Cos,
+    /// `exp f`.
+    Exp,
+    /// `tanh f`.
+    Tanh,
 }
 
 impl Unary {
@@ -86,6 +94,10 @@ impl Unary {
             Unary::Sqrt => v.sqrt(),
             Unary::Clamp(lo, hi) => v.clamp(lo, hi),
             Unary::Pow(e) => v.powf(e),
+            Unary::Sin => v.sin(),
+            Unary::Cos => v.cos(),
+            Unary::Exp => v.exp(),
+            Unary::Tanh => v.tanh(),
         }
     }
 
@@ -113,6 +125,13 @@ impl Unary {
                 }
             }
             Unary::Pow(e) => e * v.powf(e - 1.0),
+            Unary::Sin => v.cos(),
+            Unary::Cos => -v.sin(),
+            Unary::Exp => v.exp(),
+            Unary::Tanh => {
+                let t = v.tanh();
+                1.0 - t * t
+            }
         }
     }
 }
@@ -292,6 +311,22 @@ impl ScalarField for Dot {
         self.1.eval_batch(points, &mut b);
         for ((o, a), b) in out.iter_mut().zip(a).zip(b) {
             *o = a.dot(b);
+        }
+    }
+}
+
+/// Component `a` (0, 1, 2: x, y, z) of a vector field.
+pub struct Component(pub Vector, pub usize);
+
+impl ScalarField for Component {
+    fn eval(&self, p: Vec3) -> f32 {
+        self.0.eval(p)[self.1]
+    }
+    fn eval_batch(&self, points: &[Vec3], out: &mut [f32]) {
+        let mut v = vec![Vec3::ZERO; points.len()];
+        self.0.eval_batch(points, &mut v);
+        for (o, v) in out.iter_mut().zip(v) {
+            *o = v[self.1];
         }
     }
 }
@@ -516,6 +551,19 @@ constructors! {
     unary neg = Neg, "`−f`.";
     unary abs = Abs, "`|f|`.";
     unary sqrt = Sqrt, "`√f`.";
+    unary sin = Sin, "`sin f`.";
+    unary cos = Cos, "`cos f`.";
+    unary exp = Exp, "`exp f`.";
+    unary tanh = Tanh, "`tanh f`.";
+}
+
+/// Component `axis` (0 = x, 1 = y, 2 = z) of `v`.
+///
+/// # Panics
+/// If `axis > 2`.
+pub fn component(v: Vector, axis: usize) -> Scalar {
+    assert!(axis < 3, "component: axis {axis} is not 0, 1 or 2");
+    Arc::new(Component(v, axis))
 }
 
 /// `f^e` with a constant exponent.
@@ -646,6 +694,12 @@ mod tests {
             pow_field(b.clone(), a.clone()),
             dot(v.clone(), identity()),
             bilinear(v.clone(), m, identity()),
+            sin(a.clone()),
+            cos(a.clone()),
+            exp(a.clone()),
+            tanh(a.clone()),
+            component(v.clone(), 0),
+            component(v.clone(), 2),
         ];
         let pts = points();
         for f in scalars {
@@ -687,6 +741,10 @@ mod tests {
                 mul(neg(a.clone()), constant(3.0)),
             ),
             abs(add(a.clone(), constant(2.0))),
+            sin(a.clone()),
+            cos(b.clone()),
+            exp(a.clone()),
+            tanh(mul(a.clone(), constant(2.0))),
         ];
         let pts = points();
         for e in exprs {

@@ -132,6 +132,14 @@ impl Stencil {
         }
     }
 
+    /// The linear indices of the eight corners (the order of the `index`
+    /// doc above): the values a sample at this point is a weighted mean of,
+    /// whose minimum and maximum bound it (MacCormack's clamp).
+    #[inline(always)]
+    pub fn corners(&self) -> [usize; 8] {
+        self.index
+    }
+
     /// Interpolate a scalar array laid out like the grid.
     ///
     /// # Panics

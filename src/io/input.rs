@@ -101,6 +101,26 @@ pub fn read_npy3(path: &Path) -> Result<Array3<f32>, InputError> {
     read_checked(path, "(nz, ny, nx)")
 }
 
+/// Read a cell-centred density `.npy` of shape `(nz, ny, nx)`, f32 or f64
+/// (rounded to f32), the header checked as [`read_npy3`] does.
+pub fn read_density_npy(path: &Path) -> Result<Array3<f32>, InputError> {
+    let mut head = [0u8; 256];
+    let n = open_regular(path, "volume")?.read(&mut head).unwrap_or(0);
+    let text = String::from_utf8_lossy(&head[..n]);
+    if !(text.contains("'<f8'") || text.contains("'float64'")) {
+        return read_npy3(path);
+    }
+    let bad = |why: String| {
+        InputError::new(format!(
+            "volume {}: {why}; it must be an f32 or f64 .npy array of shape (nz, ny, nx)",
+            path.display()
+        ))
+    };
+    let file = open_regular(path, "volume")?;
+    let data = Array3::<f64>::read_npy(BufReader::new(file)).map_err(|e| bad(e.to_string()))?;
+    Ok(data.mapv(|v| v as f32))
+}
+
 /// Read an f32 `.npy` vector volume of shape `(nz, ny, nx, 3)` (as `smokelab
 /// run` writes `vel_NNNN.npy`), checking the file and its header before
 /// allocating.

@@ -31,7 +31,7 @@ pub struct SolverConfig {
     /// Edge length L of the cubic box, world units.
     pub size: f32,
     /// The box's faces: `periodic` (the notes' FFT box) or `closed` (six
-    /// walls with no normal flow; SL advection and gridded densities).
+    /// walls with no normal flow; SL or MacCormack advection and gridded densities).
     #[serde(rename = "box")]
     pub box_kind: BoxKind,
     /// Number of time steps (one step per frame).
@@ -44,7 +44,9 @@ pub struct SolverConfig {
     pub gravity: f32,
     /// Semi-Lagrangian backtrace: `euler`, `rk2` or `rk3`.
     pub backtrace: Backtrace,
-    /// Advection scheme for velocity and gridded densities: `sl` or `quick`.
+    /// Advection scheme for velocity and gridded densities: `sl`, `quick` or
+    /// `maccormack` (gridless and SELMA densities always trace semi-Lagrangian
+    /// departure points; the scheme then moves the velocity).
     pub advection: Scheme,
     /// QUICK: split steps beyond the CFL bound into sub-steps (false: refuse them).
     pub substeps: bool,
@@ -185,11 +187,10 @@ impl SolverConfig {
             }
         }
         if self.box_kind == BoxKind::Closed {
-            if self.advection != Scheme::Sl {
-                return Err(InputError::new(format!(
-                    "box closed needs advection sl (QUICK's lattice is periodic; advection is {})",
-                    format!("{:?}", self.advection).to_lowercase()
-                )));
+            if self.advection == Scheme::Quick {
+                return Err(InputError::new(
+                    "box closed needs advection sl or maccormack (QUICK's lattice is periodic; advection is quick)",
+                ));
             }
             if self.density != DensityMode::Gridded {
                 return Err(InputError::new(format!(
@@ -237,6 +238,12 @@ pub trait Scenario: Clone + Default + Serialize + DeserializeOwned {
 
     /// The simulation at rest with sources and obstacles in place.
     fn build(&self) -> Result<Simulation, InputError>;
+
+    /// The exact solution a run of `sim` (just built) is measured against,
+    /// where the scenario knows one (the prescribed flows).
+    fn exact(&self, _sim: &Simulation) -> Option<super::prescribed::Exact> {
+        None
+    }
 }
 
 /// Every key a scenario's configuration has (the solver's included).

@@ -2,6 +2,7 @@
 
 pub mod config;
 pub mod hot_cold;
+pub mod prescribed;
 pub mod slab_box;
 pub mod sphere_wall;
 
@@ -19,9 +20,19 @@ pub enum ScenarioKind {
     HotCold,
     /// Buoyant gas in a closed box flowing around a slab (§6.3, fig 6.6).
     SlabBox,
+    /// A sphere in LeVeque's 3D deformation field, returning at one period
+    /// (prescribed velocity; [`prescribed`]).
+    Deformation,
+    /// Zalesak's slotted sphere in rigid rotation (prescribed velocity).
+    Zalesak,
 }
 
 impl ScenarioKind {
     /// Every scenario.
-    pub const ALL: [ScenarioKind; 2] = [ScenarioKind::HotCold, ScenarioKind::SlabBox];
+    pub const ALL: [ScenarioKind; 4] = [
+        ScenarioKind::HotCold,
+        ScenarioKind::SlabBox,
+        ScenarioKind::Deformation,
+        ScenarioKind::Zalesak,
+    ];
 }
