@@ -444,6 +444,20 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         return Ok(());
     }
     let s = config.solver();
+    // SELMA's key given on the command line to another mode, even at its
+    // default (the configuration refuses any other value itself).
+    let remap_given = args.solver.selma_remap.is_some()
+        || args
+            .set
+            .iter()
+            .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
+    if remap_given && s.density != DensityMode::Selma {
+        return Err(InputError::new(format!(
+            "selma_remap {} is only used by --density selma (density is {})",
+            s.selma_remap, s.density
+        ))
+        .into());
+    }
     init_threads(s.threads)?;
     let out = args.out.clone().unwrap_or_else(|| default_run_dir(C::NAME));
     let earlier = output_dir::check(&out, &output_dir::RUN, args.overwrite)?;
