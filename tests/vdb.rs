@@ -598,12 +598,16 @@ fn z_up_files_hold_the_rotated_volume() {
         let (i, k, j) = (ii as usize, nz - 1 - jj as usize, kk as usize);
         assert!(ii < nx as i32 && jj < nz as i32 && kk < ny as i32);
         assert_eq!(v, d[[k, j, i]], "file voxel ({ii}, {jj}, {kk})");
-        let world = translation + scale_values * glam::DVec3::new(ii as f64, jj as f64, kk as f64);
-        let want = UpAxis::Z.point(g.cell_center(i, j, k)).as_dvec3();
-        assert!(
-            (world - want).abs().max_element() < 1e-5,
-            "{world} vs {want}"
-        );
+        let (t, s) = (translation.to_array(), scale_values.to_array());
+        let idx = [ii, jj, kk].map(|c| c as f64);
+        let world = [0, 1, 2].map(|a| t[a] + s[a] * idx[a]);
+        let want = UpAxis::Z
+            .point(g.cell_center(i, j, k))
+            .as_dvec3()
+            .to_array();
+        for a in 0..3 {
+            assert!((world[a] - want[a]).abs() < 1e-5, "{world:?} vs {want:?}");
+        }
     }
     // y up in the simulation is +z in the file: the top face's cells are highest.
     assert_eq!(UpAxis::Z.point(Vec3::Y), Vec3::Z);
