@@ -63,6 +63,10 @@ pub struct RunRecord {
     pub checkpoint_every: usize,
     /// `--vdb`.
     pub vdb: bool,
+    /// `--density-grid` and `--up` of the VDB frames (absent in checkpoints
+    /// written before they existed: the defaults).
+    #[serde(default)]
+    pub vdb_frames: crate::export::VdbFrames,
     /// `--paraview`.
     pub paraview: bool,
     /// `--render` and its options, if given.

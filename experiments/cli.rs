@@ -11,6 +11,7 @@ use clap::{Args, Parser, Subcommand};
 
 use crate::checkpoint::{Checkpoint, RenderFlags, RunRecord};
 use crate::frames::FrameRender;
+use crate::output_dir;
 use crate::registry;
 use crate::run::{self, Checkpointing, RunOptions, SaveFrames};
 use serde::Serialize;
@@ -49,7 +50,7 @@ pub enum Command {
     /// Sample a noise velocity field onto an N³ grid (`noise.npy` + slice PNG): the divergence-free kinds (simulation, curl, bitangent, Stam–Fiume) and, for comparison, value and Perlin noise, which are not.
     Noise(crate::noise_command::NoiseArgs),
     /// Refresh `paper/paper.md` from `results/` and build it to HTML (pandoc).
-    Paper,
+    Paper(crate::paper::PaperArgs),
     /// Run a field script (`experiments/scripts/*.rhai`), the notes' FELT almost as printed.
     Script(crate::script::ScriptArgs),
     /// Write `results/index.html`: every experiment's figures with captions and commands.
@@ -88,8 +89,9 @@ pub struct RunArgs {
     /// (files named as a run names them); without it such a folder is refused.
     #[arg(long)]
     pub overwrite: bool,
-    /// Write the whole state to `checkpoint.bin` after every K steps
-    /// (atomically, the latest kept), so that `--resume` can continue the run.
+    /// Write the whole state to `checkpoint.bin` after every K steps and
+    /// after the last (atomically, the latest kept), so that `--resume` can
+    /// continue the run, killed or complete.
     #[arg(long, value_name = "K")]
     pub checkpoint_every: Option<usize>,
     /// Continue the killed run in RUN_DIR from its `checkpoint.bin`, with the
@@ -97,9 +99,13 @@ pub struct RunArgs {
     /// and `--quiet` may be given; `--frames N` changes the total).
     #[arg(long, value_name = "RUN_DIR")]
     pub resume: Option<PathBuf>,
-    /// Also write each saved frame as OpenVDB, `frame_NNNN.vdb` (Houdini, Blender).
+    /// Also write each saved frame as OpenVDB, `frame_NNNN.vdb` (Houdini,
+    /// Blender), numbered 1, 2, 3… in the order saved.
     #[arg(long)]
     pub vdb: bool,
+    /// The VDB frames' `density` grid and up axis (with --vdb).
+    #[command(flatten)]
+    pub vdb_flags: crate::export::VdbFlags,
     /// Also write each saved frame as VTK image data, `frame_NNNN.vti`, listed in `run.pvd` (ParaView).
     #[arg(long)]
     pub paraview: bool,
@@ -356,16 +362,26 @@ pub struct ExperimentArgs {
     /// Experiment id, e.g. `06-1` (see `--list`), or `all` to run every one in turn.
     pub id: Option<String>,
     /// List the experiments and what they reproduce.
-    #[arg(long, conflicts_with_all = ["id", "out", "full", "smoke"])]
+    #[arg(long, conflicts_with_all = ["id", "out", "full", "smoke", "overwrite"])]
     pub list: bool,
-    /// Output folder (default: `results/<id>/`; with `all`, the parent of
-    /// one folder per experiment, default `results/`).
+    /// Output folder (default: `results/<id>/` at the default size, a new
+    /// `runs/<id>-smoke-<time>/` or `runs/<id>-full-<time>/` otherwise; with
+    /// `all`, the parent of one folder per experiment, default `results/`
+    /// or `runs/all-smoke-<time>/`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Run at the notes' full sizes instead of the cheap default.
+    /// Replace the outputs of an earlier run of the experiment in its folder
+    /// (figures, tables, arrays, manifests, and its run folders; other files
+    /// stay); without it such a folder is refused. `experiment all
+    /// --overwrite` regenerates `results/`.
+    #[arg(long)]
+    pub overwrite: bool,
+    /// Run at the notes' full sizes instead of the cheap default (into
+    /// `runs/`, not `results/`, unless --out says so).
     #[arg(long)]
     pub full: bool,
-    /// Tiny sizes that finish in seconds (used by the test suite).
+    /// Tiny sizes that finish in seconds (used by the test suite; into
+    /// `runs/`, not `results/`, unless --out says so).
     #[arg(long, conflicts_with = "full")]
     pub smoke: bool,
     /// Worker threads (default: all cores).
@@ -398,6 +414,32 @@ fn check_clean_build(out: &std::path::Path, allow_dirty: bool) -> Result<(), Inp
     Ok(())
 }
 
+/// The run folder being written and whether it writes checkpoints, for
+/// the interrupt message ([`interrupt_hint`]).
+static RUNNING: std::sync::Mutex<Option<(PathBuf, bool)>> = std::sync::Mutex::new(None);
+
+fn set_running(dir: &std::path::Path, checkpoints: bool) {
+    *RUNNING.lock().unwrap_or_else(|e| e.into_inner()) = Some((dir.to_path_buf(), checkpoints));
+}
+
+/// What the interrupt (Ctrl-C) message tells about going on: `run
+/// --resume RUN_DIR` for a run that writes checkpoints, how to make one
+/// that does otherwise.
+pub fn interrupt_hint() -> String {
+    match RUNNING.lock().unwrap_or_else(|e| e.into_inner()).as_ref() {
+        Some((dir, true)) => format!(
+            "Continue the run from its last checkpoint with `smokelab run --resume {}`",
+            dir.display()
+        ),
+        Some((dir, false)) => format!(
+            "The run in {} wrote no checkpoint; run with --checkpoint-every K to be able to continue it with `smokelab run --resume RUN_DIR`",
+            dir.display()
+        ),
+        None => "A run with --checkpoint-every K continues with `smokelab run --resume RUN_DIR`"
+            .to_string(),
+    }
+}
+
 /// Set the number of rayon worker threads (once per process).
 fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
     if let Some(n) = threads {
@@ -422,7 +464,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         }
         Some(Command::Export(args)) => crate::export::run(&args),
         Some(Command::Noise(args)) => crate::noise_command::run(&args),
-        Some(Command::Paper) => crate::paper::build(&crate::paper::repository_root()?),
+        Some(Command::Paper(args)) => crate::paper::run(&args),
         Some(Command::Script(args)) => crate::script::run(&args),
         Some(Command::Gallery(args)) => crate::gallery::run(&args),
     }
@@ -451,21 +493,26 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         return Ok(());
     }
     let s = config.solver();
-    init_threads(s.threads)?;
-    let out = args.out.clone().unwrap_or_else(|| default_run_dir(C::NAME));
-    io::check_output_dir(&out)?;
-    let earlier = earlier_run_outputs(&out)?;
-    if !earlier.is_empty() && !args.overwrite {
+    // SELMA's key given on the command line to another mode, even at its
+    // default (the configuration refuses any other value itself).
+    let remap_given = args.solver.selma_remap.is_some()
+        || args
+            .set
+            .iter()
+            .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
+    if remap_given && s.density != DensityMode::Selma {
         return Err(InputError::new(format!(
-            "output folder {} holds {} files of an earlier run (e.g. {}); give another --out, or --overwrite to replace them",
-            out.display(),
-            earlier.len(),
-            earlier[0].display()
+            "selma_remap {} is only used by --density selma (density is {})",
+            s.selma_remap, s.density
         ))
         .into());
     }
+    init_threads(s.threads)?;
+    let out = args.out.clone().unwrap_or_else(|| default_run_dir(C::NAME));
+    let earlier = output_dir::check(&out, &output_dir::RUN, args.overwrite)?;
     let render = frame_render(args, s)?;
     let mut sim = config.build()?;
+    let vdb = vdb_frames(args, &sim)?;
     let checkpoints = match args.checkpoint_every {
         Some(0) => {
             return Err(InputError::new("--checkpoint-every is 0; it must be at least 1").into())
@@ -477,6 +524,7 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
                 config: toml::to_string(config).expect("a configuration serializes to TOML"),
                 checkpoint_every: every,
                 vdb: args.vdb,
+                vdb_frames: vdb.clone().unwrap_or_default(),
                 paraview: args.paraview,
                 render: args.render.then(|| RenderFlags {
                     every: args.render_every,
@@ -488,18 +536,10 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         }),
         None => None,
     };
-    for f in &earlier {
-        std::fs::remove_file(f)
-            .map_err(|e| anyhow::anyhow!("cannot remove {} to overwrite it: {e}", f.display()))?;
-    }
+    earlier.remove()?;
     io::create_output_dir(&out)?;
-    let opts = run_options(
-        out.clone(),
-        s,
-        args.quiet,
-        render,
-        [args.vdb, args.paraview],
-    );
+    set_running(&out, checkpoints.is_some());
+    let opts = run_options(out.clone(), s, args.quiet, render, (vdb, args.paraview));
     let mut exact = config.exact(&sim).map(|e| ExactLog::new(e, &out));
     let summary = match (&checkpoints, exact.as_mut()) {
         (Some(c), _) => run::run_checkpointed(&mut sim, &opts, config, s.seed, c)?,
@@ -536,7 +576,10 @@ fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
         (args.overwrite, "--overwrite"),
         (args.print_config, "--print-config"),
         (args.checkpoint_every.is_some(), "--checkpoint-every"),
-        (args.vdb || args.paraview || args.render, "output flags"),
+        (
+            args.vdb || args.paraview || args.render || args.vdb_flags.given(),
+            "output flags",
+        ),
     ];
     let mut refused: Vec<String> = given
         .keys()
@@ -663,13 +706,23 @@ fn resume_config<C: Scenario>(
     sim.restore(state)?;
     let metrics = crate::checkpoint::metrics_upto(dir, step, &run::metric_columns(&sim))?;
     // Checked: now replace what the killed run wrote after the checkpoint.
-    for f in earlier_run_outputs(dir)? {
+    let save_every = s.save_every;
+    for f in output_dir::earlier_outputs(dir, &output_dir::RUN).files {
         let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        let frame = name
+        let number = name
             .rsplit_once('_')
             .and_then(|(_, rest)| rest.split_once('.'))
             .and_then(|(n, _)| n.parse::<usize>().ok());
-        if frame.is_some_and(|n| n > step) {
+        // The VDB and VTK frames are numbered by sequence: `n` holds a step
+        // in `((n−1)K, nK]`, after the checkpoint when `nK > step` (the one
+        // straddling it is rewritten by the resumed run).
+        let exchange =
+            name.starts_with("frame_") && (name.ends_with(".vdb") || name.ends_with(".vti"));
+        let after = number.is_some_and(|n| match exchange {
+            true => n * save_every.max(1) > step,
+            false => n > step,
+        });
+        if after {
             std::fs::remove_file(&f)
                 .map_err(|e| anyhow::anyhow!("cannot remove {} to resume: {e}", f.display()))?;
         }
@@ -682,12 +735,14 @@ fn resume_config<C: Scenario>(
         use std::io::Write;
         Ok(w.write_all(metrics.as_bytes())?)
     })?;
+    set_running(dir, true);
+    let vdb = record.vdb.then(|| record.vdb_frames.clone());
     let opts = run_options(
         dir.to_path_buf(),
         s,
         args.quiet,
         render,
-        [record.vdb, record.paraview],
+        (vdb, record.paraview),
     );
     let checkpoints = Checkpointing {
         every: record.checkpoint_every,
@@ -730,34 +785,6 @@ fn killed_temporary_files(dir: &std::path::Path) -> Vec<PathBuf> {
         .collect()
 }
 
-/// The files in `dir` that a run writes (volumes, previews, renders, VDB and
-/// VTK frames, metrics, manifest), sorted; none if `dir` does not exist.
-/// A rerun must not leave an earlier run's frames beside its own.
-fn earlier_run_outputs(dir: &std::path::Path) -> Result<Vec<PathBuf>, InputError> {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Ok(vec![]);
-    };
-    let is_output = |name: &str| {
-        let frame = |ext: &str| {
-            name.strip_suffix(ext)
-                .and_then(|stem| stem.rsplit_once('_'))
-                .is_some_and(|(_, n)| n.len() == 4 && n.bytes().all(|b| b.is_ascii_digit()))
-        };
-        [".npy", ".png", ".exr", ".vdb", ".vti"]
-            .into_iter()
-            .any(frame)
-            || ["metrics.csv", "manifest.json", "run.pvd", "obstacle.npy"].contains(&name)
-    };
-    let mut files: Vec<PathBuf> = entries
-        .filter_map(|e| e.ok())
-        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
-        .filter(|e| e.file_name().to_str().is_some_and(is_output))
-        .map(|e| e.path())
-        .collect();
-    files.sort();
-    Ok(files)
-}
-
 fn default_run_dir(name: &str) -> PathBuf {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
@@ -792,28 +819,39 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
         ))
         .into());
     }
+    // Only the default size writes into `results/` unless asked: the
+    // committed results are the default-size ones, and a smoke run there
+    // would mix sizes (and replace them).
+    let default_out = |folder: &str| match size {
+        registry::Size::Default => PathBuf::from("results").join(folder),
+        registry::Size::Smoke => default_run_dir(&format!("{folder}-smoke")),
+        registry::Size::Full => default_run_dir(&format!("{folder}-full")),
+    };
     if id == "all" {
-        let parent = args.out.clone().unwrap_or_else(|| PathBuf::from("results"));
-        io::check_output_dir(&parent)?;
+        let parent = args.out.clone().unwrap_or_else(|| match size {
+            registry::Size::Default => PathBuf::from("results"),
+            _ => default_out("all"),
+        });
         check_clean_build(&parent, args.allow_dirty)?;
-        return run_all_experiments(&parent, size, !args.quiet);
+        return run_all_experiments(&parent, size, !args.quiet, args.overwrite);
     }
     let exp = registry::find(id)?;
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("results").join(exp.folder));
-    io::check_output_dir(&out)?;
+    let out = args.out.clone().unwrap_or_else(|| default_out(exp.folder));
+    let earlier = output_dir::check(&out, &output_dir::EXPERIMENT, args.overwrite)?;
     check_clean_build(&out, args.allow_dirty)?;
+    earlier.remove()?;
     let ctx = registry::Context {
         out: out.clone(),
         size,
         progress: !args.quiet,
     };
     let start = std::time::Instant::now();
-    match &args.peers {
-        Some(python) => crate::ep_1_perf::run_with_peers(&ctx, Some(python))?,
-        None => (exp.run)(&ctx)?,
+    {
+        let _bar = crate::progress::experiment(exp.id, !args.quiet);
+        match &args.peers {
+            Some(python) => crate::ep_1_perf::run_with_peers(&ctx, Some(python))?,
+            None => (exp.run)(&ctx)?,
+        }
     }
     println!(
         "experiment {} ({}) finished in {:.1} s; wrote {}",
@@ -838,22 +876,43 @@ struct ExperimentRow {
 /// `smokelab experiment all`: every experiment in the notes' order into
 /// `parent/<folder>/`, going on past failures, then a table of what ran, how
 /// long and where it wrote — printed and saved as `parent/experiments.csv`.
+/// Every folder is checked first ([`output_dir::EXPERIMENT`]): one holding
+/// earlier outputs refuses the whole run unless `overwrite`, and then each
+/// experiment's earlier outputs are removed right before it runs.
 fn run_all_experiments(
     parent: &std::path::Path,
     size: registry::Size,
     progress: bool,
+    overwrite: bool,
 ) -> Result<()> {
-    let mut rows = Vec::new();
-    // One bar over the experiments; theirs would draw over it, so they stay hidden.
-    let bar = crate::progress::bar(registry::ALL.len() as u64, "experiments", progress);
+    io::check_output_dir(parent)?;
+    let table = parent.join("experiments.csv");
+    let mut earlier = Vec::new();
     for exp in registry::ALL {
         let out = parent.join(exp.folder);
+        earlier.push(output_dir::check(&out, &output_dir::EXPERIMENT, overwrite)?);
+    }
+    if table.is_file() && !overwrite {
+        return Err(InputError::new(format!(
+            "output folder {} holds {} of an earlier `experiment all`; give another --out, or --overwrite to replace it",
+            parent.display(),
+            table.display()
+        ))
+        .into());
+    }
+    let mut rows = Vec::new();
+    let count = registry::ALL.len();
+    for (n, (exp, earlier)) in registry::ALL.iter().zip(earlier).enumerate() {
+        let out = parent.join(exp.folder);
+        earlier.remove()?;
+        // One bar per experiment, titled with its place in the whole; its
+        // runs are its named stages.
+        let bar = crate::progress::experiment(&format!("{}/{count} {}", n + 1, exp.id), progress);
         bar.suspend(|| println!("== experiment {} ({})", exp.id, exp.reproduces));
-        bar.set_message(exp.id);
         let ctx = registry::Context {
             out: out.clone(),
             size,
-            progress: progress && bar.is_hidden(),
+            progress,
         };
         let start = std::time::Instant::now();
         let status = match (exp.run)(&ctx) {
@@ -864,9 +923,7 @@ fn run_all_experiments(
             }
         };
         rows.push((exp, start.elapsed().as_secs_f64(), out, status));
-        bar.inc(1);
     }
-    bar.finish_and_clear();
     let mut table = format!(
         "{:<7} {:<22} {:>9}  {:<28} {}\n",
         "id", "reproduces", "seconds", "output", "status"
@@ -904,13 +961,13 @@ fn run_all_experiments(
 }
 
 /// What `run` (fresh or resumed) writes into `out`: the solver's frames,
-/// saves and metrics cadence, the frame renders, and `[vdb, paraview]`.
+/// saves and metrics cadence, the frame renders, and `(vdb, paraview)`.
 fn run_options(
     out: PathBuf,
     s: &SolverConfig,
     quiet: bool,
     render: Option<FrameRender>,
-    [vdb, paraview]: [bool; 2],
+    (vdb, paraview): (Option<crate::export::VdbFrames>, bool),
 ) -> RunOptions {
     RunOptions {
         out,
@@ -923,6 +980,24 @@ fn run_options(
         vdb,
         paraview,
     }
+}
+
+/// The VDB frames `run --vdb [--density-grid sum|GAS] [--up y|z]` asks
+/// for (`None` without `--vdb`; the flags without it are refused).
+fn vdb_frames(
+    args: &RunArgs,
+    sim: &smokelab::simulation::Simulation,
+) -> Result<Option<crate::export::VdbFrames>, InputError> {
+    if !args.vdb {
+        if args.vdb_flags.given() {
+            return Err(InputError::new(
+                "--density-grid and --up shape the VDB frames; add --vdb",
+            ));
+        }
+        return Ok(None);
+    }
+    let gases: Vec<String> = sim.gases.iter().map(|g| g.name.clone()).collect();
+    args.vdb_flags.resolve(&gases).map(Some)
 }
 
 /// The renders `smokelab run hot-cold --render [--render-every K]

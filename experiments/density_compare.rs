@@ -177,6 +177,23 @@ pub(crate) fn render_fine(sim: &Simulation, side: u32) -> Result<RgbImage> {
     Ok(output::preview(&r.image, &Display::default()))
 }
 
+/// Announce the runs of `modes` as the experiment's stages (one overall
+/// progress bar with an overall ETA).
+pub(crate) fn plan(modes: &[ModeRun]) {
+    let stages: Vec<(&str, u64, crate::progress::Growth)> = modes
+        .iter()
+        .map(|m| {
+            let s = &m.config.solver;
+            (
+                m.label.as_str(),
+                s.frames as u64,
+                crate::progress::growth_of(s.density),
+            )
+        })
+        .collect();
+    crate::progress::plan(&stages);
+}
+
 /// Run one mode into `<ctx.out>/<label>/`, capturing `capture` frames.
 pub(crate) fn run_mode(
     ctx: &Context,
@@ -196,7 +213,7 @@ pub(crate) fn run_mode(
         metrics_every: config.solver.metrics_every,
         sample_res: None,
         render: None,
-        vdb: false,
+        vdb: None,
         paraview: false,
     };
     let mut frames = Vec::new();

@@ -108,6 +108,21 @@ fn run(ctx: &Context) -> Result<()> {
         ),
         ("head-on".to_string(), &head_on, ctx.out.join("head_on")),
     ];
+    let names: Vec<String> = cases
+        .iter()
+        .map(|c| crate::progress::stage_name(&c.2))
+        .collect();
+    let stages: Vec<_> = names
+        .iter()
+        .map(|n| {
+            (
+                n.as_str(),
+                config.solver.frames as u64,
+                crate::progress::Growth::Constant,
+            )
+        })
+        .collect();
+    crate::progress::plan(&stages);
     let (mut renders, mut slices, mut rows) = (vec![], vec![], vec![]);
     for (_, case, out) in &cases {
         let (r, s, measures) = run_one(ctx, case, out, &frames)?;
@@ -163,7 +178,7 @@ fn run_one(
         metrics_every: config.solver.metrics_every,
         sample_res: config.solver.sample_res,
         render: Some(render),
-        vdb: false,
+        vdb: None,
         paraview: false,
     };
     let summary = run::run(&mut sim, &opts, config, config.solver.seed)?;

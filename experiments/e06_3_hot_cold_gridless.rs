@@ -97,6 +97,7 @@ fn run(ctx: &Context) -> Result<()> {
     for m in &modes {
         m.config.validate()?;
     }
+    dc::plan(&modes);
     let results = modes
         .iter()
         .map(|m| dc::run_mode(ctx, m, &capture, look))

@@ -165,6 +165,11 @@ fn run(ctx: &Context) -> Result<()> {
     for c in &configs {
         c.validate()?;
     }
+    let stages: Vec<_> = CASES
+        .iter()
+        .map(|c| (c.name, frames as u64, crate::progress::growth_of(c.density)))
+        .collect();
+    crate::progress::plan(&stages);
     io::create_output_dir(&ctx.out)?;
     let mut data = String::from(
         "case,res,frames,alpha,max_obstacle_fraction,max_closed_flux,\
@@ -190,7 +195,7 @@ fn run(ctx: &Context) -> Result<()> {
             metrics_every: config.solver.metrics_every,
             sample_res: None,
             render: None,
-            vdb: false,
+            vdb: None,
             paraview: false,
         };
         let summary = run::run(&mut sim, &opts, config, config.solver.seed)?;

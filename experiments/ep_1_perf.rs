@@ -122,7 +122,12 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
             .build()
             .expect("a thread pool")
     });
-    let bar = crate::progress::bar(sizes.len() as u64, "resolutions", ctx.progress);
+    let mut bar = crate::progress::stage(
+        "resolutions",
+        sizes.len() as u64,
+        crate::progress::Growth::Constant,
+        ctx.progress,
+    );
     let mut rows = vec![];
     let mut peer_rows = peers.as_ref().map(|_| vec![]);
     for &res in &sizes {

@@ -4,31 +4,163 @@
 //!
 //! ```text
 //! smokelab export vdb runs/hot-cold-1700000000        # frame_NNNN.vdb
+//! smokelab export vdb runs/hot-cold-1700000000 --up z --out blender/
 //! smokelab export paraview runs/hot-cold-1700000000   # frame_NNNN.vti + run.pvd
 //! ```
 //!
 //! Both read the run's `manifest.json` for the grid (origin, cell size,
-//! counts), the gases and Δt, and each saved frame's `<gas>_NNNN.npy` and
-//! `vel_NNNN.npy`; they write through the same [`write_frame_formats`] as
+//! counts), the gases, Δt and `save_every`, each saved frame's
+//! `<gas>_NNNN.npy` and `vel_NNNN.npy`, and `obstacle.npy` when the run
+//! has obstacles; they write through the same [`write_frame_formats`] as
 //! the run itself, so an export equals what `--vdb`/`--paraview` would
 //! have written.
+//!
+//! **Frame numbers.** The `.npy` files and previews are numbered by step;
+//! the exchange files by *sequence number* ([`sequence_number`]): the
+//! frame saved after step `N` of a run saving every `K` steps is
+//! `frame_{⌈N/K⌉:04}`, so the files count 1, 2, 3… without gaps, as
+//! Blender's and Houdini's sequence detection need (`frame_0010`,
+//! `frame_0020`… is no sequence to them). With `--save-every 1` the
+//! sequence number is the step. Each VDB file records its step and time
+//! as file metadata (`step`, `time`), and `run.pvd` lists each `.vti` at
+//! its time.
+//!
+//! **Grids.** A VDB frame holds a fog-volume grid per gas, the fog volume
+//! `density` ([`DensityGrid`]: the sum of the gases, or one of them — the
+//! grid Blender's default volume material and Houdini's volume shaders
+//! read), the velocity `vel`, and with obstacles the level set `obstacle`
+//! (class `level set`, negative inside, world units; `obstacle.npy` is
+//! positive inside, as the solver holds it). A `.vti` frame holds the gases,
+//! `obstacle` (negative inside) and `vel` as cell data.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 use clap::{Args, ValueEnum};
+
+use crate::output_dir;
 use ndarray::{ArrayView3, ArrayView4};
 use serde::Deserialize;
 
+use serde::Serialize;
 use smokelab::error::InputError;
 use smokelab::io::input::{read_npy3, read_npy4, read_text};
-use smokelab::io::vdb::{write_vdb, VdbOptions, VolumeGeometry};
+use smokelab::io::vdb::{write_vdb_grids, MetaValue, UpAxis, VdbGrids, VdbOptions, VolumeGeometry};
 use smokelab::io::vtk::PvdCollection;
+
+/// The sequence number of the exchange files (`frame_NNNN.vdb`, `.vti`)
+/// of the frame saved after `step` steps by a run saving every
+/// `save_every` steps and at its last: `⌈step / save_every⌉`, so that
+/// the saved frames count 1, 2, 3… without gaps (a last frame between two
+/// multiples takes the next number).
+pub fn sequence_number(step: usize, save_every: usize) -> usize {
+    step.div_ceil(save_every.max(1))
+}
+
+/// The exchange file of sequence number `n`, `frame_NNNN.<ext>`.
+pub fn sequence_file(n: usize, ext: &str) -> String {
+    format!("frame_{n:04}.{ext}")
+}
+
+/// What a VDB frame's `density` grid holds.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+pub enum DensityGrid {
+    /// The sum of the gases.
+    #[default]
+    Sum,
+    /// One gas, by name.
+    Gas(String),
+}
+
+impl DensityGrid {
+    /// `sum`, or a gas name.
+    pub fn parse(s: &str) -> Self {
+        match s {
+            "sum" => DensityGrid::Sum,
+            gas => DensityGrid::Gas(gas.to_string()),
+        }
+    }
+
+    /// Check that a named gas is one of `gases`.
+    pub fn check(&self, gases: &[String]) -> Result<(), InputError> {
+        match self {
+            DensityGrid::Gas(g) if !gases.contains(g) => Err(InputError::new(format!(
+                "--density-grid {g}: the run has no gas {g}; give sum or one of: {}",
+                gases.join(", ")
+            ))),
+            _ => Ok(()),
+        }
+    }
+}
+
+/// The up axis of the VDB files (`--up`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum, Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Up {
+    /// y up, as simulated (Houdini, Maya).
+    #[default]
+    Y,
+    /// z up (Blender): the data rotated +90° about x, (x, y, z) ↦ (x, −z, y).
+    Z,
+}
+
+impl From<Up> for UpAxis {
+    fn from(u: Up) -> Self {
+        match u {
+            Up::Y => UpAxis::Y,
+            Up::Z => UpAxis::Z,
+        }
+    }
+}
+
+/// The flags that shape the VDB frames, shared by `run --vdb` and `export vdb`.
+#[derive(Clone, Debug, Default, Args)]
+pub struct VdbFlags {
+    /// What each VDB frame's `density` grid holds (the grid Blender's default
+    /// volume material shows): `sum` of the gases (default) or one gas by name.
+    #[arg(long, value_name = "sum|GAS")]
+    pub density_grid: Option<String>,
+    /// The VDB files' up axis: `y` as simulated (Houdini), `z` for Blender
+    /// (the data rotated +90° about x).
+    #[arg(long, value_enum)]
+    pub up: Option<Up>,
+}
+
+impl VdbFlags {
+    /// Whether any flag was given (they shape VDB files only).
+    pub fn given(&self) -> bool {
+        self.density_grid.is_some() || self.up.is_some()
+    }
+
+    /// The options these flags select, checked against the run's gases.
+    pub fn resolve(&self, gases: &[String]) -> Result<VdbFrames, InputError> {
+        let density = self
+            .density_grid
+            .as_deref()
+            .map_or_else(DensityGrid::default, DensityGrid::parse);
+        density.check(gases)?;
+        Ok(VdbFrames {
+            density,
+            up: self.up.unwrap_or_default(),
+        })
+    }
+}
+
+/// How VDB frames are written ([`VdbFlags`] resolved).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, serde::Deserialize)]
+pub struct VdbFrames {
+    /// The `density` grid.
+    pub density: DensityGrid,
+    /// The up axis.
+    pub up: Up,
+}
 
 /// One saved frame's volumes and where they sit.
 pub struct FrameVolumes<'a> {
     /// Frame number `N` (the state after `N` steps).
     pub frame: usize,
+    /// The exchange files' sequence number ([`sequence_number`]).
+    pub sequence: usize,
     /// Simulated time of the frame.
     pub time: f32,
     /// Where the arrays sit in the world.
@@ -37,42 +169,102 @@ pub struct FrameVolumes<'a> {
     pub scalars: &'a [(&'a str, ArrayView3<'a, f32>)],
     /// `(name, vector)` volumes such as `vel`, shape `(nz, ny, nx, 3)`.
     pub vectors: &'a [(&'a str, ArrayView4<'a, f32>)],
+    /// The obstacles' level set at the cell centres, **positive inside**
+    /// as the solver holds it (`obstacle.npy`), if the run has obstacles.
+    pub obstacle: Option<ArrayView3<'a, f32>>,
+}
+
+/// The formats [`write_frame_formats`] writes.
+pub struct Exchange<'a> {
+    /// OpenVDB, and how.
+    pub vdb: Option<&'a VdbFrames>,
+    /// VTK image data, listed in this collection.
+    pub pvd: Option<&'a mut PvdCollection>,
 }
 
 /// Write one saved frame into `out` in the formats other tools open:
-/// OpenVDB (`frame_NNNN.vdb`, Houdini, Blender) when `vdb`, with one float
-/// grid per gas and a vec3s grid per vector volume, and VTK image data
-/// (`frame_NNNN.vti`, ParaView) listed at its time in `pvd` when given.
-/// Both place cell `(i, j, k)` at its centre in world units.
-pub fn write_frame_formats(
-    out: &Path,
-    volumes: &FrameVolumes,
-    vdb: bool,
-    pvd: Option<&mut PvdCollection>,
-) -> Result<()> {
+/// OpenVDB (`frame_NNNN.vdb`, Houdini, Blender), with a fog volume per gas,
+/// the fog volume `density`, the level set `obstacle` and a vec3s grid per
+/// vector volume, and VTK image data (`frame_NNNN.vti`, ParaView) listed at
+/// its time in the collection. `NNNN` is the sequence number. Both place
+/// cell `(i, j, k)` at its centre in world units (rotated with `--up z`).
+pub fn write_frame_formats(out: &Path, volumes: &FrameVolumes, to: Exchange) -> Result<()> {
     let FrameVolumes {
         frame,
+        sequence,
         time,
         geometry,
         scalars,
         vectors,
+        obstacle,
     } = *volumes;
-    if vdb {
-        write_vdb(
-            &out.join(format!("frame_{frame:04}.vdb")),
-            geometry,
-            scalars,
+    // Negative inside, as OpenVDB and VTK's contour filters take a level set.
+    let level = obstacle.map(|o| o.mapv(|v| -v));
+    if let Some(vdb) = to.vdb {
+        let density = density_grid(scalars, &vdb.density)?;
+        let mut fog: Vec<(&str, ArrayView3<f32>)> = scalars.to_vec();
+        if let Some(d) = &density {
+            fog.push(("density", d.view()));
+        }
+        let level_sets: Vec<(&str, ArrayView3<f32>)> =
+            level.iter().map(|l| ("obstacle", l.view())).collect();
+        let metadata = [
+            ("step", MetaValue::Int(frame as i64)),
+            ("time", MetaValue::Float(time)),
+        ];
+        let grids = VdbGrids {
+            fog: &fog,
+            level_sets: &level_sets,
             vectors,
-            VdbOptions::default(),
+            metadata: &metadata,
+        };
+        let options = VdbOptions {
+            up: vdb.up.into(),
+            ..VdbOptions::default()
+        };
+        write_vdb_grids(
+            &out.join(sequence_file(sequence, "vdb")),
+            geometry,
+            &grids,
+            options,
         )?;
     }
-    if let Some(pvd) = pvd {
-        let file = format!("frame_{frame:04}.vti");
+    if let Some(pvd) = to.pvd {
+        let file = sequence_file(sequence, "vti");
         // The f32 time as its shortest decimal (0.1, not 0.10000000149…).
         let time: f64 = time.to_string().parse()?;
-        pvd.write_frame(time, &file, geometry, scalars, vectors)?;
+        let mut cells: Vec<(&str, ArrayView3<f32>)> = scalars.to_vec();
+        if let Some(l) = &level {
+            cells.push(("obstacle", l.view()));
+        }
+        pvd.write_frame(time, &file, geometry, &cells, vectors)?;
     }
     Ok(())
+}
+
+/// The `density` grid of a frame: the sum of the gases or one of them;
+/// `None` when a gas is itself named `density`.
+fn density_grid(
+    scalars: &[(&str, ArrayView3<f32>)],
+    choice: &DensityGrid,
+) -> Result<Option<ndarray::Array3<f32>>> {
+    if scalars.iter().any(|(n, _)| *n == "density") || scalars.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(match choice {
+        DensityGrid::Sum => {
+            let mut sum = scalars[0].1.to_owned();
+            for (_, g) in &scalars[1..] {
+                sum += g;
+            }
+            sum
+        }
+        DensityGrid::Gas(name) => scalars
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, g)| g.to_owned())
+            .ok_or_else(|| anyhow::anyhow!("--density-grid {name}: no such gas"))?,
+    }))
 }
 
 /// The formats `smokelab export` writes.
@@ -90,9 +282,18 @@ pub struct ExportArgs {
     /// The format to write.
     #[arg(value_enum)]
     pub format: ExportFormat,
-    /// A folder `smokelab run` wrote (with `manifest.json` and saved frames);
-    /// the files are written into it.
+    /// A folder `smokelab run` wrote (with `manifest.json` and saved frames).
     pub run_dir: PathBuf,
+    /// Where to write the files (default: into RUN_DIR).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Replace the frames of this format an earlier run or export wrote
+    /// there (only `frame_NNNN.vdb`, or `frame_NNNN.vti` and `run.pvd`).
+    #[arg(long)]
+    pub overwrite: bool,
+    /// The VDB frames' `density` grid and up axis.
+    #[command(flatten)]
+    pub vdb: VdbFlags,
 }
 
 /// A run's folder as its manifest and saved frames describe it.
@@ -106,6 +307,9 @@ pub struct RunFolder {
     pub gases: Vec<String>,
     /// The time step Δt; frame `N` is at time `N Δt`.
     pub dt: f32,
+    /// The run's `save_every` (`None`: not a run's configuration, e.g. a
+    /// script's; the saved frames are then numbered in order).
+    pub save_every: Option<usize>,
     /// The saved frames (those with a `vel_NNNN.npy`), ascending.
     pub frames: Vec<usize>,
 }
@@ -117,10 +321,12 @@ struct ManifestRecord {
     extra: RunRecord,
 }
 
-/// The solver configuration's time step.
+/// The solver configuration's time step and save cadence.
 #[derive(Deserialize)]
 struct ConfigRecord {
     dt: f32,
+    #[serde(default)]
+    save_every: Option<usize>,
 }
 
 /// What `smokelab run` records about its grid and gases.
@@ -186,8 +392,43 @@ impl RunFolder {
             geometry,
             gases: record.extra.gases,
             dt: record.config.dt,
+            save_every: record.config.save_every.filter(|&k| k > 0),
             frames,
         })
+    }
+
+    /// The saved frames an uninterrupted run writes, with their sequence
+    /// numbers: with `save_every` K, each multiple of K and the last,
+    /// numbered `⌈N/K⌉` (a frame a resumed run saved as the last of a shorter
+    /// run is left out); otherwise every saved frame, numbered in order.
+    pub fn sequence(&self) -> Vec<(usize, usize)> {
+        let last = self.frames.last().copied().unwrap_or(0);
+        match self.save_every {
+            Some(k) => self
+                .frames
+                .iter()
+                .filter(|&&f| f.is_multiple_of(k) || f == last)
+                .map(|&f| (f, sequence_number(f, k)))
+                .collect(),
+            None => self
+                .frames
+                .iter()
+                .enumerate()
+                .map(|(n, &f)| (f, n + 1))
+                .collect(),
+        }
+    }
+
+    /// The obstacles' level set (`obstacle.npy`, positive inside), if the
+    /// run has obstacles.
+    pub fn read_obstacle(&self) -> Result<Option<ndarray::Array3<f32>>, InputError> {
+        let path = self.dir.join("obstacle.npy");
+        if !path.exists() {
+            return Ok(None);
+        }
+        let a = read_npy3(&path)?;
+        self.check_shape(&path, a.shape())?;
+        Ok(Some(a))
     }
 
     /// The file of `gas` at `frame`.
@@ -240,10 +481,24 @@ impl RunFolder {
 pub fn run(args: &ExportArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let run = RunFolder::open(&args.run_dir)?;
-    let vdb = args.format == ExportFormat::Vdb;
-    let mut pvd = (args.format == ExportFormat::Paraview)
-        .then(|| PvdCollection::new(run.dir.join("run.pvd")));
-    for &frame in &run.frames {
+    let is_vdb = args.format == ExportFormat::Vdb;
+    if !is_vdb && args.vdb.given() {
+        return Err(InputError::new(
+            "--density-grid and --up shape VDB files; `export paraview` has none",
+        )
+        .into());
+    }
+    let vdb = args.vdb.resolve(&run.gases)?;
+    let out = args.out.clone().unwrap_or_else(|| run.dir.clone());
+    let rule = match args.format {
+        ExportFormat::Vdb => &output_dir::EXPORT_VDB,
+        ExportFormat::Paraview => &output_dir::EXPORT_PARAVIEW,
+    };
+    let obstacle = run.read_obstacle()?;
+    output_dir::prepare(&out, rule, args.overwrite)?;
+    let mut pvd = (!is_vdb).then(|| PvdCollection::new(out.join("run.pvd")));
+    let sequence = run.sequence();
+    for &(frame, n) in &sequence {
         let gases = run.read_gases(frame)?;
         let velocity = run.read_velocity(frame)?;
         let scalars: Vec<(&str, _)> = run
@@ -254,22 +509,28 @@ pub fn run(args: &ExportArgs) -> Result<()> {
             .collect();
         let volumes = FrameVolumes {
             frame,
+            sequence: n,
             time: frame as f32 * run.dt,
             geometry: &run.geometry,
             scalars: &scalars,
             vectors: &[("vel", velocity.view())],
+            obstacle: obstacle.as_ref().map(|o| o.view()),
         };
-        write_frame_formats(&run.dir, &volumes, vdb, pvd.as_mut())?;
+        let to = Exchange {
+            vdb: is_vdb.then_some(&vdb),
+            pvd: pvd.as_mut(),
+        };
+        write_frame_formats(&out, &volumes, to)?;
     }
     println!(
         "exported {} frames as {} in {:.1} s; wrote {}",
-        run.frames.len(),
+        sequence.len(),
         match args.format {
             ExportFormat::Vdb => "frame_NNNN.vdb",
             ExportFormat::Paraview => "frame_NNNN.vti and run.pvd",
         },
         start.elapsed().as_secs_f64(),
-        run.dir.display()
+        out.display()
     );
     Ok(())
 }

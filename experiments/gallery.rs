@@ -27,9 +27,13 @@ use smokelab::io;
 #[derive(Debug, Args)]
 pub struct GalleryArgs {
     /// The results folder to index; the page is written into it as
-    /// `index.html` (default: the repository's `results/`).
+    /// `index.html` (default: the `results/` of the repository the working
+    /// folder is in; outside one, give it).
     #[arg(long, value_name = "DIR")]
     pub results: Option<PathBuf>,
+    /// Replace an earlier `index.html`.
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 /// Run `smokelab gallery`.
@@ -39,6 +43,7 @@ pub fn run(args: &GalleryArgs) -> Result<()> {
         None => crate::paper::repository_root()?.join("results"),
     };
     let gallery = Gallery::scan(&results)?;
+    crate::output_dir::check(&results, &crate::output_dir::GALLERY, args.overwrite)?.remove()?;
     let path = results.join("index.html");
     let html = gallery.html();
     io::write_atomic(&path, |w| {

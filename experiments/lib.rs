@@ -17,6 +17,7 @@ pub mod paper;
 pub mod gallery;
 pub mod claims;
 pub mod progress;
+pub mod output_dir;
 pub mod memory;
 pub mod script;
 

@@ -19,7 +19,10 @@ fn main() -> ExitCode {
     // whole files remain, and stop with the shell's code for an interrupt.
     ctrlc::set_handler(|| {
         let removed = smokelab::io::remove_temporary_files();
-        eprintln!("interrupted; removed {removed} partly written files");
+        eprintln!(
+            "interrupted; removed {removed} partly written files. {}",
+            smokelab_app::cli::interrupt_hint()
+        );
         std::process::exit(130);
     })
     .expect("no other interrupt handler is installed");

@@ -102,6 +102,10 @@ pub struct NoiseArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace an earlier noise in --out (`noise.npy`, `slice.png`,
+    /// `manifest.json`); without it such a folder is refused.
+    #[arg(long)]
+    pub overwrite: bool,
     /// Hide the progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -268,9 +272,9 @@ pub fn run(args: &NoiseArgs) -> Result<()> {
     let spec = args.spec()?;
     let domain = args.domain()?;
     check_reach(&spec, args.size)?;
-    io::check_output_dir(&args.out)?;
-    crate::render_command::check_own_manifest(&args.out, "spec", "noise")?;
+    let earlier = crate::output_dir::check(&args.out, &crate::output_dir::NOISE, args.overwrite)?;
     let field = spec.build()?;
+    earlier.remove()?;
     io::create_output_dir(&args.out)?;
     let px = args.res.max(512);
     // Progress: the grid's samples, then the slice's (the LIC after them is

@@ -7,12 +7,19 @@
 //! claims table measured from the results by [`crate::claims`]), so
 //! re-running an experiment and then `smokelab paper` updates the paper.
 //! If `pandoc` is on the PATH the paper is also written to
-//! `paper/paper.html`; without it the command says so and succeeds.
+//! `paper/paper.html`; without it the command says so and succeeds. An
+//! earlier `paper.html` is replaced only with `--overwrite` (the output
+//! rule, [`crate::output_dir`]).
+//!
+//! The repository is the nearest folder at or above the working folder
+//! holding `paper/paper.md`, or `--root DIR`; never the checkout the
+//! binary was built from, which would be written behind the user's back.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{bail, Context, Result};
+use clap::Args;
 
 use smokelab::error::InputError;
 use smokelab::io;
@@ -42,20 +49,53 @@ pub fn replace_block(doc: &str, name: &str, content: &str) -> Result<String> {
     ))
 }
 
-/// The repository whose paper to build: the nearest folder at or above the
-/// working directory that holds `paper/paper.md`, else the checkout this
-/// binary was built from.
+/// `smokelab paper`.
+#[derive(Debug, Default, Args)]
+pub struct PaperArgs {
+    /// The repository: the folder holding `paper/paper.md` and `results/`
+    /// (default: the nearest such folder at or above the working folder).
+    #[arg(long, value_name = "DIR")]
+    pub root: Option<PathBuf>,
+    /// Replace an earlier `paper/paper.html`.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+/// Run `smokelab paper`.
+pub fn run(args: &PaperArgs) -> Result<()> {
+    let root = match &args.root {
+        Some(r) if r.join("paper/paper.md").is_file() => r.clone(),
+        Some(r) => {
+            return Err(InputError::new(format!(
+                "--root {}: it holds no paper/paper.md; give the repository's folder",
+                r.display()
+            ))
+            .into())
+        }
+        None => repository_root()?,
+    };
+    let earlier = crate::output_dir::check(
+        &root.join("paper"),
+        &crate::output_dir::PAPER,
+        args.overwrite,
+    )?;
+    earlier.remove()?;
+    build(&root)
+}
+
+/// The repository the working folder is in: the nearest folder at or
+/// above it that holds `paper/paper.md`. There is no fallback to the
+/// checkout this binary was built from: outside a repository the commands
+/// that write into it (`paper`, `gallery`) need a path given.
 pub fn repository_root() -> Result<PathBuf> {
     let cwd = std::env::current_dir().context("cannot read the working directory")?;
-    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     cwd.ancestors()
         .map(Path::to_path_buf)
-        .chain(std::iter::once(built))
         .find(|d| d.join("paper/paper.md").is_file())
         .map(|d| d.canonicalize().unwrap_or(d))
         .ok_or_else(|| {
             anyhow::Error::new(InputError::new(format!(
-                "no paper/paper.md in {} or above it, nor in the checkout smokelab was built from",
+                "no paper/paper.md in {} or above it: run inside the repository, or give its folder (paper --root DIR, gallery --results DIR)",
                 cwd.display()
             )))
         })

@@ -110,6 +110,10 @@ pub struct RenderArgs {
     /// Output folder.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace an earlier render in --out (`render.exr`, `render.png`,
+    /// `manifest.json`); without it such a folder is refused.
+    #[arg(long)]
+    pub overwrite: bool,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -132,8 +136,7 @@ struct RenderJob {
 pub fn run(args: &RenderArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let job = resolve(args)?;
-    io::check_output_dir(&args.out)?;
-    check_own_manifest(&args.out, "densities", "render")?;
+    let earlier = crate::output_dir::check(&args.out, &crate::output_dir::RENDER, args.overwrite)?;
     let bar = progress::bar(
         expected_queries(&job.scene, &job.settings),
         "density samples",
@@ -145,6 +148,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let rendered = render(&counted, &job.settings)?;
     bar.finish_and_clear();
+    earlier.remove()?;
     io::create_output_dir(&args.out)?;
     output::write_exr(&args.out.join("render.exr"), &rendered.image, job.precision)?;
     io::write_png(
@@ -386,31 +390,6 @@ fn render_box(
 /// 10³⁰ overflowed them to infinity, one of 10⁻³⁰ underflowed them to 0,
 /// and both were refused as "camera and look-at coincide").
 const EXTENT: (f32, f32) = (1e-3, 1e9);
-
-/// Refuse an output folder whose `manifest.json` another command wrote
-/// (`render RUN_DIR --out RUN_DIR` replaced the run's manifest): a manifest
-/// of `command` has the key `own_key` in its configuration.
-///
-/// # Errors
-/// An [`InputError`] naming the folder.
-pub fn check_own_manifest(out: &Path, own_key: &str, command: &str) -> Result<(), InputError> {
-    let path = out.join("manifest.json");
-    if std::fs::symlink_metadata(&path).is_err() {
-        return Ok(());
-    }
-    let ours = io::input::read_text(&path, "manifest")
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .is_some_and(|m| m["config"].get(own_key).is_some());
-    if ours {
-        return Ok(());
-    }
-    Err(InputError::new(format!(
-        "output folder {} holds a manifest.json that `smokelab {command}` did not write (a run's?); \
-         writing there would replace it; give another --out",
-        out.display()
-    )))
-}
 
 /// Edge length of the box along its longest axis without a run or `--size`:
 /// the hot/cold box.

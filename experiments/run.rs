@@ -7,17 +7,25 @@
 //! - `vel_NNNN.npy` — f32 `(nz, ny, nx, 3)` velocity, as the projection left it;
 //! - `preview_NNNN.png` — mid-plane slice of the gases (obstacles grey);
 //! - `render_NNNN.exr`, `render_NNNN.png` — volume renders (with `--render`);
-//! - `frame_NNNN.vdb` — with `--vdb`: OpenVDB, a float grid per gas and the
-//!   vec3s grid `vel`, voxel `(0,0,0)` at the first cell centre;
+//! - `frame_NNNN.vdb` — with `--vdb`: OpenVDB, a fog volume per gas, the
+//!   fog volume `density` (the gases' sum, or `--density-grid GAS`), the
+//!   vec3s grid `vel` and, with obstacles, the level set `obstacle`
+//!   (negative inside); voxel `(0,0,0)` at the first cell centre (`--up z`
+//!   rotates it all for z-up hosts). `NNNN` is the *sequence number*
+//!   `⌈N/K⌉` of the frame saved after step `N` with `--save-every K`, so
+//!   the files count 1, 2, 3… as Blender's and Houdini's sequence
+//!   detection needs ([`crate::export`]);
 //! - `frame_NNNN.vti`, `run.pvd` — with `--paraview`: VTK image data (cell
-//!   data: the gases and `vel`) and the time series ParaView opens;
+//!   data: the gases, `obstacle` and `vel`), numbered as the VDB files, and
+//!   the time series ParaView opens;
 //! - `obstacle.npy` — f32 `(nz, ny, nx)` obstacle level set at the cell
 //!   centres, positive inside, world units (runs with obstacles);
 //! - `metrics.csv` — one row per step ([`MetricsRow`]), appended and flushed
 //!   as each step ends; the fine measures ([`FineMeasures`]) are computed
 //!   every `metrics_every` steps and at the last, `NaN` in between;
 //! - `checkpoint.bin` — with `--checkpoint-every K`: the whole state after
-//!   the latest K-th step ([`crate::checkpoint`]), for `run --resume`;
+//!   the latest K-th step and after the last ([`crate::checkpoint`]), for
+//!   `run --resume` (a complete run resumes from its last frame);
 //! - `manifest.json` — configuration, machine, commit, wall time, peak memory;
 //!   written at the start with `"status": "running"`, rewritten at the end
 //!   with `"status": "complete"`, or `"failed"` and the error if a step fails.
@@ -32,7 +40,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 use crate::checkpoint::{self, RunRecord};
-use crate::export::{write_frame_formats, FrameVolumes};
+use crate::export::{write_frame_formats, Exchange, FrameVolumes, VdbFrames};
 use crate::frames::{FrameRecord, FrameRender};
 use crate::table::{field_names, Log};
 use smokelab::density::probe::{DensityMeasures, DensityProbe};
@@ -64,8 +72,8 @@ pub struct RunOptions {
     pub sample_res: Option<usize>,
     /// Frames to volume-render, and how (`None`: no renders).
     pub render: Option<FrameRender>,
-    /// Also write each saved frame as OpenVDB (`frame_NNNN.vdb`).
-    pub vdb: bool,
+    /// Also write each saved frame as OpenVDB (`frame_NNNN.vdb`), shaped so.
+    pub vdb: Option<VdbFrames>,
     /// Also write each saved frame as VTK image data (`frame_NNNN.vti`,
     /// listed with its time in `run.pvd`) for ParaView.
     pub paraview: bool,
@@ -87,6 +95,16 @@ impl SaveFrames {
             SaveFrames::Every(0) => false,
             SaveFrames::Every(k) => frame.is_multiple_of(*k) || frame == last,
             SaveFrames::List(l) => l.contains(&frame),
+        }
+    }
+
+    /// The sequence number of the exchange files (`frame_NNNN.vdb`,
+    /// `.vti`) of saved `frame`: `⌈frame/K⌉` ([`crate::export::sequence_number`]),
+    /// or its place in the list (from 1).
+    pub fn sequence(&self, frame: usize) -> usize {
+        match self {
+            SaveFrames::Every(k) => crate::export::sequence_number(frame, *k),
+            SaveFrames::List(l) => l.iter().filter(|&&f| f <= frame).count(),
         }
     }
 }
@@ -426,7 +444,16 @@ fn drive<C: Serialize>(
         Some(_) => Log::append(metrics_path)?,
         None => Log::create(metrics_path, &metric_columns(sim))?,
     };
-    let bar = crate::progress::bar(opts.frames as u64, "steps", opts.progress);
+    // A gridless step walks back through every velocity grid so far: its
+    // cost grows with the step.
+    let growth = sim
+        .gases
+        .iter()
+        .map(|g| crate::progress::growth_of(g.model.mode()))
+        .max_by_key(|g| *g == crate::progress::Growth::Linear)
+        .unwrap_or(crate::progress::Growth::Constant);
+    let name = crate::progress::stage_name(&opts.out);
+    let mut bar = crate::progress::stage(&name, opts.frames as u64, growth, opts.progress);
     bar.set_position(first as u64);
     let domain = *sim.domain();
     let mut summary = RunSummary {
@@ -476,7 +503,8 @@ fn drive<C: Serialize>(
             for &f in &summary.saved_frames {
                 // As `write_frame_formats` lists it: the f32 time's shortest decimal.
                 let time: f64 = (f as f32 * sim.params.dt).to_string().parse()?;
-                pvd.push(time, &format!("frame_{f:04}.vti"))?;
+                let n = opts.save.sequence(f);
+                pvd.push(time, &crate::export::sequence_file(n, "vti"))?;
             }
         }
         let mut probes = FineProbes::new(domain);
@@ -507,7 +535,11 @@ fn drive<C: Serialize>(
             if opts.save.contains(frame, opts.frames) {
                 timed(&mut times.output, || {
                     write_frame(sim, &opts.out, frame, opts.sample_res)?;
-                    write_exchange(sim, &opts.out, frame, opts.vdb, pvd.as_mut())?;
+                    let exchange = Exchange {
+                        vdb: opts.vdb.as_ref(),
+                        pvd: pvd.as_mut(),
+                    };
+                    write_exchange(sim, &opts.out, (frame, opts.save.sequence(frame)), exchange)?;
                     at_saved(sim, frame)
                 })?;
                 summary.saved_frames.push(frame);
@@ -583,9 +615,11 @@ fn drive<C: Serialize>(
                 obstacles: obstacles.into_iter().collect(),
                 times: times.into(),
             })?;
-            // After the row, so that a checkpoint's metrics rows are all on disk.
+            // After the row, so that a checkpoint's metrics rows are all on
+            // disk; after the last step too, so that a complete run resumes
+            // from its last frame (`--resume --frames N`).
             if let Some(c) = checkpoints.filter(|c| c.every > 0) {
-                if frame % c.every == 0 && frame < opts.frames {
+                if frame % c.every == 0 || frame == opts.frames {
                     timed(&mut times.output, || {
                         checkpoint::write(&opts.out, sim, &c.record)
                     })?;
@@ -682,16 +716,15 @@ pub fn write_frame(
     io::write_png(&preview_path(out, frame), &preview_image(sim))
 }
 
-/// The formats other tools open, for one saved frame (see
-/// [`write_frame_formats`]).
+/// The formats other tools open, for one saved frame `(step, sequence
+/// number)` (see [`write_frame_formats`]).
 fn write_exchange(
     sim: &Simulation,
     out: &Path,
-    frame: usize,
-    vdb: bool,
-    pvd: Option<&mut PvdCollection>,
+    (frame, sequence): (usize, usize),
+    to: Exchange,
 ) -> Result<()> {
-    if !vdb && pvd.is_none() {
+    if to.vdb.is_none() && to.pvd.is_none() {
         return Ok(());
     }
     let geometry = VolumeGeometry::from(sim.domain());
@@ -703,12 +736,14 @@ fn write_exchange(
     let centred = sim.velocity.to_cell_centres();
     let volumes = FrameVolumes {
         frame,
+        sequence,
         time: sim.time(),
         geometry: &geometry,
         scalars: &scalars,
         vectors: &[("vel", centred.data().view())],
+        obstacle: sim.boundary.as_ref().map(|b| b.level().data().view()),
     };
-    write_frame_formats(out, &volumes, vdb, pvd)
+    write_frame_formats(out, &volumes, to)
 }
 
 /// Mid-plane slice of every gas in its display colour, obstacles in grey.

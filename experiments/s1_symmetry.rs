@@ -322,7 +322,12 @@ fn run(ctx: &Context) -> Result<()> {
         c.validate()?;
     }
     io::create_output_dir(&ctx.out)?;
-    let bar = crate::progress::bar((configs.len() * steps) as u64, "steps", ctx.progress);
+    let mut bar = crate::progress::stage(
+        "symmetry cases",
+        (configs.len() * steps) as u64,
+        crate::progress::Growth::Constant,
+        ctx.progress,
+    );
     let mut rows = Vec::new();
     for (case, config) in &configs {
         let cell = config.solver.domain()?.cell;

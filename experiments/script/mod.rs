@@ -60,6 +60,10 @@ pub struct ScriptArgs {
     /// Output folder (default `runs/script-<file stem>`); the script writes only inside it.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace an earlier run's outputs in the folder (frames, arrays,
+    /// metrics, manifest); without it such a folder is refused.
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 /// What the manifest records as the run's configuration.
@@ -191,6 +195,8 @@ pub fn run(args: &ScriptArgs) -> Result<()> {
             .map_or("script".into(), |s| s.to_string_lossy());
         Path::new("runs").join(format!("script-{stem}"))
     });
+    let earlier = crate::output_dir::check(&out, &crate::output_dir::SCRIPT, args.overwrite)?;
+    earlier.remove()?;
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let recorder = Rc::new(RefCell::new(Recorder::new(out.clone())));
     let engine = engine(&recorder, &params);

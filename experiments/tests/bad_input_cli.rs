@@ -52,14 +52,23 @@ fn writing_over_a_run_folder_manifest_is_refused() {
         std::fs::read_dir(dir.path().join("run")).unwrap().count(),
         files
     );
-    // A render's own folder may be rendered into again.
-    for _ in 0..2 {
-        let o = smokelab(
-            &["render", "run", "--image", "16x16", "--out", "r", "--quiet"],
-            dir.path(),
-        );
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    }
+    // A render's own folder may be rendered into again, with --overwrite.
+    let render = |extra: &[&str]| {
+        let mut args = vec!["render", "run", "--image", "16x16", "--out", "r", "--quiet"];
+        args.extend_from_slice(extra);
+        smokelab(&args, dir.path())
+    };
+    assert!(render(&[]).status.success());
+    assert_refused(
+        &["render", "run", "--image", "16x16", "--out", "r", "--quiet"],
+        dir.path(),
+        &[
+            "output folder r holds 3 files of an earlier run",
+            "--overwrite",
+        ],
+    );
+    let o = render(&["--overwrite"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 /// `render --size 1e30` (and 1e-30) was refused as "camera position and
@@ -80,7 +89,16 @@ fn render_box_sizes_outside_f32_geometry_are_refused() {
     for size in ["1e-3", "1e9"] {
         let o = smokelab(
             &[
-                "render", "run", "--size", size, "--image", "16x16", "--out", "o", "--quiet",
+                "render",
+                "run",
+                "--size",
+                size,
+                "--image",
+                "16x16",
+                "--out",
+                "o",
+                "--quiet",
+                "--overwrite",
             ],
             dir.path(),
         );
@@ -159,4 +177,54 @@ fn experiment_list_with_an_id_is_refused() {
         assert!(err.contains("cannot be used with"), "{args:?}: {err}");
     }
     assert!(!dir.path().join("o").exists());
+}
+
+/// `--selma-remap` is SELMA's, as `--map-res` is: given to another density
+/// mode it is refused (it used to be accepted silently), naming the mode.
+#[test]
+fn selma_remap_without_selma_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for (mode, remap) in [
+        ("gridded", ["--selma-remap", "2"]),
+        ("gridless", ["--selma-remap", "0.5"]),
+        ("gridded", ["--set", "selma_remap=3"]),
+    ] {
+        let args = [
+            &[
+                "run",
+                "--res",
+                "10",
+                "--frames",
+                "1",
+                "--density",
+                mode,
+                "--out",
+                "o",
+            ][..],
+            &remap[..],
+        ]
+        .concat();
+        let value = remap[1].trim_start_matches("selma_remap=");
+        let needle = format!("selma_remap {value} is only used by --density selma");
+        assert_refused(&args, dir.path(), &[needle.as_str(), mode]);
+    }
+    assert!(!dir.path().join("o").exists());
+    let o = smokelab(
+        &[
+            "run",
+            "--res",
+            "10",
+            "--frames",
+            "1",
+            "--density",
+            "selma",
+            "--selma-remap",
+            "2",
+            "--quiet",
+            "--out",
+            "o",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }

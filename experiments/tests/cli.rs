@@ -333,17 +333,19 @@ fn a_run_writes_vdb_and_paraview_frames_and_its_grid() {
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let out = dir.path().join("out");
+    // Numbered 1, 2 in the order saved (steps 2 and 4), as a sequence.
     for f in [
+        "frame_0001.vdb",
         "frame_0002.vdb",
-        "frame_0004.vdb",
+        "frame_0001.vti",
         "frame_0002.vti",
-        "frame_0004.vti",
     ] {
         assert!(out.join(f).is_file(), "no {f}");
     }
+    assert!(!out.join("frame_0004.vdb").exists());
     let pvd = std::fs::read_to_string(out.join("run.pvd")).unwrap();
     assert!(
-        pvd.contains("timestep=\"0.1\"") && pvd.contains("frame_0004.vti"),
+        pvd.contains("timestep=\"0.2\" group=\"\" part=\"0\" file=\"frame_0002.vti\""),
         "{pvd}"
     );
     let manifest: serde_json::Value =

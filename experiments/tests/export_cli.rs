@@ -25,10 +25,10 @@ fn export_writes_what_run_vdb_and_paraview_write() {
     }
     let (direct, later) = (dir.path().join("direct"), dir.path().join("later"));
     let read = |d: &Path, f: &str| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
-    for f in ["frame_0002.vti", "frame_0004.vti", "run.pvd"] {
+    for f in ["frame_0001.vti", "frame_0002.vti", "run.pvd"] {
         assert!(read(&direct, f) == read(&later, f), "{f} differs");
     }
-    for f in ["frame_0002.vdb", "frame_0004.vdb"] {
+    for f in ["frame_0001.vdb", "frame_0002.vdb"] {
         let (a, b) = (read(&direct, f), read(&later, f));
         assert_eq!(a.len(), b.len(), "{f}: lengths differ");
         let differing: Vec<usize> = (0..a.len()).filter(|&i| a[i] != b[i]).collect();
@@ -78,5 +78,149 @@ fn export_refuses_what_is_not_a_run_folder() {
             .filter(|n| n.ends_with(".vdb") || n.ends_with(".vti") || n.ends_with(".pvd"))
             .collect();
         assert!(written.is_empty(), "{folder}: wrote {written:?}");
+    }
+}
+
+/// The VDB frames a digital-content tool reads as they are: a `density`
+/// grid (the gases' sum by default, or one gas), the obstacle as a level
+/// set (class `level set`, φ = −`obstacle.npy`, negative inside, within
+/// the narrow band), the step and time as file metadata, and names that
+/// count 1, 2, 3… (steps 2, 4, 6).
+#[test]
+fn vdb_frames_carry_density_the_obstacle_level_set_and_a_sequence() {
+    use vdb_rs::{MetadataValue, VdbReader};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let run = [
+        "run",
+        "slab-box",
+        "--res",
+        "32",
+        "--frames",
+        "6",
+        "--save-every",
+        "2",
+        "--vdb",
+        "--quiet",
+        "--out",
+    ];
+    let o = smokelab(&[&run[..], &["s"]].concat(), d);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = d.join("s");
+    let names: Vec<String> = std::fs::read_dir(&s)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| n.ends_with(".vdb"))
+        .collect();
+    let mut names = names;
+    names.sort();
+    assert_eq!(
+        names,
+        ["frame_0001.vdb", "frame_0002.vdb", "frame_0003.vdb"]
+    );
+    let read = |p: &Path| {
+        VdbReader::new(std::io::BufReader::new(std::fs::File::open(p).unwrap())).unwrap()
+    };
+    let mut r = read(&s.join("frame_0002.vdb"));
+    let mut grids = r.available_grids();
+    grids.sort();
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(s.join("manifest.json")).unwrap()).unwrap();
+    let gases: Vec<String> = manifest["extra"]["gases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g.as_str().unwrap().to_string())
+        .collect();
+    let mut want: Vec<String> = gases.clone();
+    // The slab-box's one gas is itself named `density`: no second grid.
+    want.extend(["density".into(), "obstacle".into(), "vel".into()]);
+    want.sort();
+    want.dedup();
+    assert_eq!(grids, want);
+    let class = |r: &VdbReader<_>, g: &str| r.grid_descriptors[g].meta_data.0["class"].clone();
+    assert_eq!(
+        class(&r, "density"),
+        MetadataValue::String("fog volume".into())
+    );
+    assert_eq!(
+        class(&r, "obstacle"),
+        MetadataValue::String("level set".into())
+    );
+    assert_eq!(r.header.meta_data.0["step"], MetadataValue::I64(4));
+    // density = the sum of the gases, at every active voxel.
+    let voxels = |r: &mut VdbReader<_>, g: &str| -> std::collections::HashMap<[i32; 3], f32> {
+        r.read_grid::<f32>(g)
+            .unwrap()
+            .iter()
+            .map(|(p, v, _)| ([p.x as i32, p.y as i32, p.z as i32], v))
+            .collect()
+    };
+    let density = voxels(&mut r, "density");
+    let sum = |p: &[i32; 3]| -> f32 {
+        gases
+            .iter()
+            .map(|g| {
+                let a: ndarray::Array3<f32> =
+                    ndarray_npy::read_npy(s.join(format!("{g}_0004.npy"))).unwrap();
+                a[[p[2] as usize, p[1] as usize, p[0] as usize]]
+            })
+            .sum()
+    };
+    assert!(density.values().any(|&v| v > 0.0));
+    for (p, v) in density.iter().take(200) {
+        assert!((v - sum(p)).abs() <= 1e-6 * v.abs().max(1.0), "{p:?}");
+    }
+    // The obstacle: φ = −O within the band, both signs present.
+    let o: ndarray::Array3<f32> = ndarray_npy::read_npy(s.join("obstacle.npy")).unwrap();
+    let cell = manifest["extra"]["grid"]["cell"].as_f64().unwrap() as f32;
+    let level = voxels(&mut r, "obstacle");
+    let (mut neg, mut pos) = (0, 0);
+    for (p, &v) in &level {
+        let want = -o[[p[2] as usize, p[1] as usize, p[0] as usize]];
+        assert_eq!(v, want, "{p:?}");
+        assert!(v.abs() < 3.0 * cell);
+        if v < 0.0 {
+            neg += 1
+        } else {
+            pos += 1
+        }
+    }
+    assert!(neg > 0 && pos > 0, "{neg} inside, {pos} outside");
+    // Deep inside the obstacle (O > 3Δx) nothing is active.
+    let deep = o.indexed_iter().filter(|(_, &v)| v > 3.0 * cell).count();
+    assert!(deep > 0);
+    for ((k, j, i), &v) in o.indexed_iter() {
+        if v > 3.0 * cell {
+            assert!(!level.contains_key(&[i as i32, j as i32, k as i32]));
+        }
+    }
+
+    // Hot/cold: `density` is the sum of hot and cold, or with
+    // `--density-grid cold` the cold gas.
+    let hc = [
+        "run",
+        "--res",
+        "10",
+        "--frames",
+        "2",
+        "--save-every",
+        "1",
+        "--vdb",
+        "--quiet",
+    ];
+    for (out, extra) in [("sum", &[][..]), ("cold", &["--density-grid", "cold"][..])] {
+        let o = smokelab(&[&hc[..], &["--out", out], extra].concat(), d);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let mut sum = read(&d.join("sum/frame_0002.vdb"));
+    let mut cold = read(&d.join("cold/frame_0002.vdb"));
+    let (total, c) = (voxels(&mut sum, "density"), voxels(&mut cold, "density"));
+    assert_eq!(c, voxels(&mut cold, "cold"));
+    let (h, cs) = (voxels(&mut sum, "hot"), voxels(&mut sum, "cold"));
+    assert!(h.values().any(|&v| v > 0.0) && cs.values().any(|&v| v > 0.0));
+    for (p, v) in &total {
+        let want = h.get(p).unwrap_or(&0.0) + cs.get(p).unwrap_or(&0.0);
+        assert_eq!(*v, want, "{p:?}");
     }
 }

@@ -67,6 +67,13 @@ fn an_interrupted_run_says_running_and_leaves_only_whole_files() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(130), "{err}");
     assert!(err.contains("interrupted"), "{err}");
+    // How to go on: this run wrote no checkpoint, so how to make one that does.
+    assert!(
+        err.contains("wrote no checkpoint")
+            && err.contains("--checkpoint-every K")
+            && err.contains("smokelab run --resume"),
+        "{err}"
+    );
     assert_eq!(manifest(&out)["status"], "running");
     let mut volumes = 0;
     for entry in std::fs::read_dir(&out).unwrap() {

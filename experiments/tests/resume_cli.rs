@@ -137,9 +137,11 @@ fn killed_and_resumed(extra: &[&str], check_killed: impl Fn(&Path)) {
     assert_same_run(&dir.path().join("full"), &part, 16);
 }
 
-/// A finished 10-frame run (checkpoint at step 8) continued to 16 frames:
-/// its rows 9–10 (row 10 measured as the last) and frame 10 are replaced,
-/// and it ends as a 16-frame run.
+/// A finished 10-frame run continued to 16 frames resumes from its last
+/// frame, step 10 (it used to restart from the checkpoint of step 8): the
+/// checkpoint is written after the last step too. Its steps 11–16 are those
+/// of an uninterrupted 16-frame run, bitwise; what it had written stays,
+/// frame 10 (saved as its last) and row 10 (measured finely as its last).
 fn extended(extra: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     run_ok(
@@ -152,17 +154,39 @@ fn extended(extra: &[&str]) {
     ];
     run_ok(&args.concat(), dir.path());
     let part = dir.path().join("part");
-    // Row 10 was the last, so it has the fine measures the 16-frame run lacks.
-    assert_ne!(
-        metric_rows(&part)[9],
-        metric_rows(&dir.path().join("full"))[9]
-    );
+    let before = snapshot(&part);
+    let rows_before = metric_rows(&part);
     run_ok(
         &["run", "--resume", "part", "--frames", "16", "--quiet"],
         dir.path(),
     );
-    assert_eq!(manifest(&part)["extra"]["resumed_from"], 8);
-    assert_same_run(&dir.path().join("full"), &part, 16);
+    assert_eq!(manifest(&part)["extra"]["resumed_from"], 10);
+    let (full, after) = (snapshot(&dir.path().join("full")), snapshot(&part));
+    for name in full.keys().filter(|n| n.ends_with(".npy")) {
+        assert!(
+            full[name] == after[name],
+            "{name} differs from the uninterrupted run's"
+        );
+    }
+    for name in ["hot_0010.npy", "vel_0010.npy"] {
+        assert!(
+            !full.contains_key(name) && after[name] == before[name],
+            "{name}"
+        );
+    }
+    let (rf, ra) = (metric_rows(&dir.path().join("full")), metric_rows(&part));
+    assert_eq!(ra.len(), 16);
+    assert_eq!(
+        ra[..10],
+        rows_before[..],
+        "rows up to the last frame changed"
+    );
+    assert_eq!(
+        ra[10..],
+        rf[10..],
+        "rows 11–16 differ from the uninterrupted run's"
+    );
+    assert_eq!(ra[..9], rf[..9]);
 }
 
 #[test]
@@ -203,8 +227,9 @@ fn a_finished_run_extends_bitwise_in_every_mode() {
     }
 }
 
-/// Slab-box runs cut at 7 frames (checkpoint at 6) and continued to 12 are
-/// the 12-frame runs, bitwise, with every obstacle method: the notes' rule
+/// Slab-box runs of 8 frames (saves, fine metrics and checkpoints every 4
+/// steps, so the last frame is one the 12-frame run writes too) continued
+/// to 12 are the 12-frame runs, bitwise, with every obstacle method: the notes' rule
 /// (semi-Lagrangian), and the exact projection with semi-Lagrangian and
 /// with QUICK (the default), whose solves warm-start from the checkpoint's
 /// pressure and face potential.
@@ -214,19 +239,20 @@ fn slab_box_runs_extend_bitwise_with_every_obstacle_method() {
         let dir = tempfile::tempdir().unwrap();
         let args = |frames: &'static str| {
             let mut a = vec!["run", "slab-box", "--res", "32", "--frames", frames];
-            a.extend(["--save-every", "4", "--obstacles", method[0]]);
+            a.extend(["--save-every", "4", "--metrics-every", "4"]);
+            a.extend(["--obstacles", method[0]]);
             a.extend(["--advection", method[1], "--quiet", "--out"]);
             a
         };
         run_ok(&[args("12"), vec!["full"]].concat(), dir.path());
-        let part = [args("7"), vec!["part", "--checkpoint-every", "3"]];
+        let part = [args("8"), vec!["part", "--checkpoint-every", "4"]];
         run_ok(&part.concat(), dir.path());
         run_ok(
             &["run", "--resume", "part", "--frames", "12", "--quiet"],
             dir.path(),
         );
         let part = dir.path().join("part");
-        assert_eq!(manifest(&part)["extra"]["resumed_from"], 6, "{method:?}");
+        assert_eq!(manifest(&part)["extra"]["resumed_from"], 8, "{method:?}");
         assert_same_run(&dir.path().join("full"), &part, 12);
     }
 }
@@ -335,7 +361,7 @@ fn bad_resumes_exit_2_and_write_nothing() {
         cwd,
         &["run", "--resume", "good", "--frames", "8"],
         &good,
-        "--frames N > 8",
+        "--frames N > 10",
     );
     let args = ["run", "--resume", "good", "--frames", "16", "--res", "8"];
     refused(cwd, &args, &good, "drop --res");

@@ -9,9 +9,23 @@
 //!   version OpenVDB 6–10 write; OpenVDB 11+ (version 225) and the `vdb-rs`
 //!   reader both read it;
 //! - one `FloatGrid` (`Tree_float_5_4_3`) per scalar volume, class
-//!   `fog volume`, and one `Vec3SGrid` (`Tree_vec3s_5_4_3`) per vector volume,
-//!   class `unknown`, vector type `contravariant relative` (a velocity in world
-//!   units, `is_local_space` unset);
+//!   `fog volume`, one `FloatGrid` per level set, class `level set`, and one
+//!   `Vec3SGrid` (`Tree_vec3s_5_4_3`) per vector volume, class `unknown`,
+//!   vector type `contravariant relative` (a velocity in world units,
+//!   `is_local_space` unset);
+//! - **level sets** as OpenVDB's own tools make them: a signed distance in
+//!   world units, **negative inside**, background `+3Δx` (a narrow band of
+//!   [`LEVEL_SET_HALF_WIDTH`] voxels); voxels with `|φ| < 3Δx` are active
+//!   and hold φ, the others are inactive and read `−3Δx` inside and `+3Δx`
+//!   outside (per leaf, OpenVDB's `NO_MASK_AND_MINUS_BG` or
+//!   `MASK_AND_NO_INACTIVE_VALS` with the selection mask of the outside
+//!   voxels). Every leaf that holds an inside or band voxel is written, so a
+//!   point deep inside reads `−3Δx`; leaves wholly outside are left to the
+//!   `+3Δx` background;
+//! - **up axis** ([`UpAxis`]): as simulated (y up), or rotated +90° about x
+//!   for z-up hosts (Blender): `(x, y, z) ↦ (x, −z, y)`, the arrays
+//!   permuted and the vectors rotated with them, so the transform stays a
+//!   uniform scale and translation;
 //! - the standard 5-4-3 tree: root → internal nodes of 32³ children →
 //!   internal nodes of 16³ children → leaves of 8³ voxels; background 0, no
 //!   tiles;
@@ -190,13 +204,109 @@ impl VdbCompression {
     }
 }
 
+/// Which world axis points up in the file.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UpAxis {
+    /// y up, as simulated (gravity along −y): Houdini, Maya, ParaView.
+    #[default]
+    Y,
+    /// z up (Blender, 3ds Max, Unreal): the world rotated +90° about x,
+    /// `(x, y, z) ↦ (x, −z, y)`; the arrays are permuted to match, so that
+    /// file voxel `(I, J, K)` is cell `(I, nz − 1 − J, K)`, and vectors
+    /// are rotated the same way.
+    Z,
+}
+
+impl UpAxis {
+    /// Where the world point `p` (y up) lies in the file's frame.
+    pub fn point(self, p: Vec3) -> Vec3 {
+        match self {
+            UpAxis::Y => p,
+            UpAxis::Z => Vec3::new(p.x, -p.z, p.y),
+        }
+    }
+
+    /// A vector (a velocity) in the file's frame.
+    fn vector(self, v: [f32; 3]) -> [f32; 3] {
+        match self {
+            UpAxis::Y => v,
+            UpAxis::Z => [v[0], -v[2], v[1]],
+        }
+    }
+
+    /// Cell counts `[nx, ny, nz]` of the file's grids.
+    fn dims(self, g: &VolumeGeometry) -> [usize; 3] {
+        match self {
+            UpAxis::Y => g.dims,
+            UpAxis::Z => [g.dims[0], g.dims[2], g.dims[1]],
+        }
+    }
+
+    /// The array index `[k, j, i]` of the cell that file voxel `(i, j, k)` holds.
+    fn source(self, g: &VolumeGeometry, i: usize, j: usize, k: usize) -> [usize; 3] {
+        match self {
+            UpAxis::Y => [k, j, i],
+            UpAxis::Z => [g.dims[2] - 1 - j, k, i],
+        }
+    }
+
+    /// World position (file frame) of file voxel `(0, 0, 0)`, in f64.
+    fn first_voxel(self, g: &VolumeGeometry) -> [f64; 3] {
+        let dx = g.cell as f64;
+        let o = g.origin.as_dvec3();
+        match self {
+            UpAxis::Y => [o.x + 0.5 * dx, o.y + 0.5 * dx, o.z + 0.5 * dx],
+            // Cell (0, 0, nz − 1) rotated.
+            UpAxis::Z => [
+                o.x + 0.5 * dx,
+                -(o.z + (g.dims[2] as f64 - 0.5) * dx),
+                o.y + 0.5 * dx,
+            ],
+        }
+    }
+}
+
+/// Half-width of a level set's narrow band, in voxels (OpenVDB's
+/// `LEVEL_SET_HALF_WIDTH`): the background is this many voxel sizes.
+pub const LEVEL_SET_HALF_WIDTH: f32 = 3.0;
+
 /// Options of [`write_vdb`].
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct VdbOptions {
-    /// Which leaves are written (default `Relative(1e-6)`).
+    /// Which leaves of the fog volumes and vectors are written (default
+    /// `Relative(1e-6)`; level sets keep their narrow band).
     pub threshold: Threshold,
     /// How values are stored (default zlib).
     pub compression: VdbCompression,
+    /// Which axis is up in the file (default y, as simulated).
+    pub up: UpAxis,
+}
+
+/// A value of the file's own metadata ([`VdbGrids::metadata`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum MetaValue {
+    /// `int64`.
+    Int(i64),
+    /// `float`.
+    Float(f32),
+    /// `string`.
+    Text(String),
+}
+
+/// The grids of one file, all on the same geometry, and the file's own
+/// metadata.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct VdbGrids<'a> {
+    /// Fog volumes (densities), `(name, array)` of shape `(nz, ny, nx)`.
+    pub fog: &'a [(&'a str, ArrayView3<'a, f32>)],
+    /// Level sets: signed distances in world units, **negative inside**,
+    /// shape `(nz, ny, nx)` (see the module documentation).
+    pub level_sets: &'a [(&'a str, ArrayView3<'a, f32>)],
+    /// Vector volumes, shape `(nz, ny, nx, 3)`.
+    pub vectors: &'a [(&'a str, ArrayView4<'a, f32>)],
+    /// File metadata, e.g. the frame's step and time (names must not be
+    /// `creator`, which the writer sets).
+    pub metadata: &'a [(&'a str, MetaValue)],
 }
 
 /// Write scalar and vector volumes as one OpenVDB file, atomically.
@@ -212,11 +322,12 @@ pub fn write_vdb(
     vectors: &[(&str, ArrayView4<f32>)],
     options: VdbOptions,
 ) -> Result<()> {
-    check_inputs(geometry, scalars, vectors)?;
-    super::write_atomic(path, |w| {
-        write_vdb_to(w, geometry, scalars, vectors, options)?;
-        Ok(())
-    })
+    let grids = VdbGrids {
+        fog: scalars,
+        vectors,
+        ..VdbGrids::default()
+    };
+    write_vdb_grids(path, geometry, &grids, options)
 }
 
 /// [`write_vdb`] into any writer (no atomic rename); returns the bytes written.
@@ -227,7 +338,62 @@ pub fn write_vdb_to(
     vectors: &[(&str, ArrayView4<f32>)],
     options: VdbOptions,
 ) -> Result<u64> {
-    check_inputs(geometry, scalars, vectors)?;
+    let grids = VdbGrids {
+        fog: scalars,
+        vectors,
+        ..VdbGrids::default()
+    };
+    write_vdb_grids_to(w, geometry, &grids, options)
+}
+
+/// Write fog volumes, level sets and vectors as one OpenVDB file,
+/// atomically (see the module documentation).
+pub fn write_vdb_grids(
+    path: &Path,
+    geometry: &VolumeGeometry,
+    grids: &VdbGrids,
+    options: VdbOptions,
+) -> Result<()> {
+    check_grids(geometry, grids)?;
+    super::write_atomic(path, |w| {
+        write_vdb_grids_to(w, geometry, grids, options)?;
+        Ok(())
+    })
+}
+
+fn check_grids(geometry: &VolumeGeometry, grids: &VdbGrids) -> Result<()> {
+    let scalars: Vec<(&str, ArrayView3<f32>)> = grids
+        .fog
+        .iter()
+        .chain(grids.level_sets)
+        .map(|(n, a)| (*n, a.view()))
+        .collect();
+    check_inputs(geometry, &scalars, grids.vectors)?;
+    for (name, _) in grids.metadata {
+        ensure!(
+            !name.is_empty() && *name != "creator",
+            "file metadata name {name:?} is empty or reserved"
+        );
+    }
+    Ok(())
+}
+
+/// [`write_vdb_grids`] into any writer (no atomic rename); returns the
+/// bytes written.
+pub fn write_vdb_grids_to(
+    w: &mut impl Write,
+    geometry: &VolumeGeometry,
+    grids: &VdbGrids,
+    options: VdbOptions,
+) -> Result<u64> {
+    check_grids(geometry, grids)?;
+    let VdbGrids {
+        fog: scalars,
+        level_sets,
+        vectors,
+        metadata,
+    } = *grids;
+    let up = options.up;
     let mut out = Counting { inner: w, pos: 0 };
 
     // Header.
@@ -240,27 +406,60 @@ pub fn write_vdb_to(
     head.extend_from_slice(random_uuid().as_bytes());
     let mut file_meta = MetaMap::new();
     file_meta.string("creator", &creator());
+    for (name, value) in metadata {
+        match value {
+            MetaValue::Int(v) => file_meta.int64(name, *v),
+            MetaValue::Float(v) => file_meta.float(name, *v),
+            MetaValue::Text(v) => file_meta.string(name, v),
+        }
+    }
     file_meta.write(&mut head);
-    put_u32(&mut head, (scalars.len() + vectors.len()) as u32);
+    put_u32(
+        &mut head,
+        (scalars.len() + level_sets.len() + vectors.len()) as u32,
+    );
     out.write_all(&head)?;
 
+    let file = FileGeometry {
+        dims: up.dims(geometry),
+        cell: geometry.cell,
+        first: up.first_voxel(geometry),
+    };
     for (name, data) in scalars {
-        let grid = Grid::build(geometry, options, |i, j, k| data[[k, j, i]]);
-        grid.write(&mut out, name, geometry, options.compression, GridKind::Fog)?;
+        let grid = Grid::build(&file, options.threshold, |i, j, k| {
+            data[up.source(geometry, i, j, k)]
+        });
+        grid.write(&mut out, name, &file, options.compression, GridKind::Fog)?;
     }
-    for (name, data) in vectors {
-        let grid = Grid::build(geometry, options, |i, j, k| {
-            [data[[k, j, i, 0]], data[[k, j, i, 1]], data[[k, j, i, 2]]]
+    for (name, data) in level_sets {
+        let background = LEVEL_SET_HALF_WIDTH * geometry.cell;
+        let grid = Grid::build_level_set(&file, background, |i, j, k| {
+            data[up.source(geometry, i, j, k)]
         });
         grid.write(
             &mut out,
             name,
-            geometry,
+            &file,
             options.compression,
-            GridKind::Vector,
+            GridKind::LevelSet,
         )?;
     }
+    for (name, data) in vectors {
+        let grid = Grid::build(&file, options.threshold, |i, j, k| {
+            let [k, j, i] = up.source(geometry, i, j, k);
+            up.vector([data[[k, j, i, 0]], data[[k, j, i, 1]], data[[k, j, i, 2]]])
+        });
+        grid.write(&mut out, name, &file, options.compression, GridKind::Vector)?;
+    }
     Ok(out.pos)
+}
+
+/// The grids' placement in the file: counts per file axis, voxel size, and
+/// the world position of voxel `(0, 0, 0)` (after the [`UpAxis`] rotation).
+struct FileGeometry {
+    dims: [usize; 3],
+    cell: f32,
+    first: [f64; 3],
 }
 
 fn creator() -> String {
@@ -346,7 +545,32 @@ impl Voxel for [f32; 3] {
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum GridKind {
     Fog,
+    LevelSet,
     Vector,
+}
+
+/// What a leaf's inactive voxels hold (OpenVDB's per-node compression
+/// metadata, `io/Compression.h`).
+#[derive(Clone, Copy)]
+enum Inactive {
+    /// All `+background` (`NO_MASK_OR_INACTIVE_VALS`).
+    Background,
+    /// All `−background` (`NO_MASK_AND_MINUS_BG`): inside a level set.
+    MinusBackground,
+    /// `+background` where the selection mask is on, `−background` where
+    /// it is off (`MASK_AND_NO_INACTIVE_VALS`).
+    Selected([u64; 8]),
+}
+
+impl Inactive {
+    /// The metadata byte.
+    fn code(&self) -> u8 {
+        match self {
+            Inactive::Background => NO_MASK_OR_INACTIVE_VALS,
+            Inactive::MinusBackground => 1,
+            Inactive::Selected(_) => 3,
+        }
+    }
 }
 
 /// One leaf: 8³ voxels at `origin` (a multiple of 8 per axis), values in
@@ -355,6 +579,7 @@ struct Leaf<T> {
     origin: [i32; 3],
     mask: [u64; 8],
     values: Vec<T>,
+    inactive: Inactive,
 }
 
 impl<T: Voxel> Leaf<T> {
@@ -371,6 +596,25 @@ impl<T: Voxel> Leaf<T> {
 
     fn active(&self) -> u64 {
         self.mask.iter().map(|w| w.count_ones() as u64).sum()
+    }
+
+    /// Inclusive bounds of the active voxels (`None`: none).
+    fn active_bounds(&self) -> Option<([i32; 3], [i32; 3])> {
+        let mut b: Option<([i32; 3], [i32; 3])> = None;
+        for off in 0..512usize {
+            if self.mask[off >> 6] >> (off & 63) & 1 == 1 {
+                let p = [off >> 6, (off >> 3) & 7, off & 7];
+                let p = [0, 1, 2].map(|a| self.origin[a] + p[a] as i32);
+                b = Some(match b {
+                    None => (p, p),
+                    Some((lo, hi)) => (
+                        [0, 1, 2].map(|a| lo[a].min(p[a])),
+                        [0, 1, 2].map(|a| hi[a].max(p[a])),
+                    ),
+                });
+            }
+        }
+        b
     }
 }
 
@@ -393,19 +637,110 @@ fn node4_offset(p: [i32; 3]) -> u32 {
 /// The leaves of one grid, in write order, with their statistics.
 struct Grid<T> {
     leaves: Vec<Leaf<T>>,
+    /// The value of every voxel no leaf holds.
+    background: T,
     /// Inclusive bounds of the active voxels (`None` if there are none).
     bbox: Option<([i32; 3], [i32; 3])>,
     voxels: u64,
 }
 
+impl Grid<f32> {
+    /// A level set `φ` (negative inside) with a narrow band of
+    /// `background`: every leaf holding a voxel inside or in the band.
+    fn build_level_set(
+        file: &FileGeometry,
+        background: f32,
+        get: impl Fn(usize, usize, usize) -> f32 + Sync,
+    ) -> Self {
+        let [nx, ny, nz] = file.dims;
+        let counts = [nx, ny, nz].map(|n| n.div_ceil(LEAF_DIM));
+        let total = counts[0] * counts[1] * counts[2];
+        let leaves = (0..total)
+            .into_par_iter()
+            .filter_map(|n| {
+                let lx = n % counts[0];
+                let ly = (n / counts[0]) % counts[1];
+                let lz = n / (counts[0] * counts[1]);
+                let o = [lx * LEAF_DIM, ly * LEAF_DIM, lz * LEAF_DIM];
+                let mut mask = [0u64; 8];
+                // Outside (+background) until shown otherwise: voxels past
+                // the volume's far faces too.
+                let mut outside = [u64::MAX; 8];
+                let mut values = vec![background; 512];
+                for dx in 0..LEAF_DIM.min(nx - o[0]) {
+                    for dy in 0..LEAF_DIM.min(ny - o[1]) {
+                        for dz in 0..LEAF_DIM.min(nz - o[2]) {
+                            let v = get(o[0] + dx, o[1] + dy, o[2] + dz);
+                            let off = (dx << 6) | (dy << 3) | dz;
+                            let bit = 1u64 << (off & 63);
+                            // NaN is active, so a broken field shows.
+                            if v.abs() < background || v.is_nan() {
+                                values[off] = v;
+                                mask[off >> 6] |= bit;
+                                outside[off >> 6] &= !bit;
+                            } else if v < 0.0 {
+                                values[off] = -background;
+                                outside[off >> 6] &= !bit;
+                            }
+                        }
+                    }
+                }
+                // Inactive voxels are those outside the value mask.
+                let outside_inactive: [u64; 8] =
+                    [0, 1, 2, 3, 4, 5, 6, 7].map(|w| outside[w] & !mask[w]);
+                let inside_inactive: [u64; 8] =
+                    [0, 1, 2, 3, 4, 5, 6, 7].map(|w| !outside[w] & !mask[w]);
+                let any = |m: &[u64; 8]| m.iter().any(|&w| w != 0);
+                if !any(&mask) && !any(&inside_inactive) {
+                    return None; // wholly outside: the background
+                }
+                let inactive = match (any(&inside_inactive), any(&outside_inactive)) {
+                    (true, true) => Inactive::Selected(outside_inactive),
+                    (true, false) => Inactive::MinusBackground,
+                    (false, _) => Inactive::Background,
+                };
+                Some(Leaf {
+                    origin: o.map(|c| c as i32),
+                    mask,
+                    values,
+                    inactive,
+                })
+            })
+            .collect();
+        Self::from_leaves(leaves, background)
+    }
+}
+
 impl<T: Voxel> Grid<T> {
+    /// The grid of `leaves` (any order): sorted, with its statistics.
+    fn from_leaves(mut leaves: Vec<Leaf<T>>, background: T) -> Self {
+        leaves.sort_by_key(|l| l.key());
+        let mut bbox: Option<([i32; 3], [i32; 3])> = None;
+        for (lo, hi) in leaves.iter().filter_map(Leaf::active_bounds) {
+            bbox = Some(match bbox {
+                None => (lo, hi),
+                Some((a, b)) => (
+                    [0, 1, 2].map(|i| a[i].min(lo[i])),
+                    [0, 1, 2].map(|i| b[i].max(hi[i])),
+                ),
+            });
+        }
+        let voxels = leaves.iter().map(Leaf::active).sum();
+        Self {
+            leaves,
+            background,
+            bbox,
+            voxels,
+        }
+    }
+
     fn build(
-        geometry: &VolumeGeometry,
-        options: VdbOptions,
+        file: &FileGeometry,
+        threshold: Threshold,
         get: impl Fn(usize, usize, usize) -> T + Sync,
     ) -> Self {
-        let [nx, ny, nz] = geometry.dims;
-        let t = match options.threshold {
+        let [nx, ny, nz] = file.dims;
+        let t = match threshold {
             Threshold::Absolute(t) => t,
             Threshold::Relative(r) => {
                 let peak = (0..nz)
@@ -428,7 +763,7 @@ impl<T: Voxel> Grid<T> {
         };
         let counts = [nx, ny, nz].map(|n| n.div_ceil(LEAF_DIM));
         let total = counts[0] * counts[1] * counts[2];
-        let mut leaves: Vec<Leaf<T>> = (0..total)
+        let leaves: Vec<Leaf<T>> = (0..total)
             .into_par_iter()
             .filter_map(|n| {
                 let lx = n % counts[0];
@@ -455,31 +790,11 @@ impl<T: Voxel> Grid<T> {
                     origin: o.map(|c| c as i32),
                     mask,
                     values,
+                    inactive: Inactive::Background,
                 })
             })
             .collect();
-        leaves.sort_by_key(|l| l.key());
-
-        let mut bbox: Option<([i32; 3], [i32; 3])> = None;
-        for l in &leaves {
-            let hi = [0, 1, 2].map(|a| {
-                let n = geometry.dims[a] as i32;
-                (l.origin[a] + LEAF_DIM as i32).min(n) - 1
-            });
-            bbox = Some(match bbox {
-                None => (l.origin, hi),
-                Some((a, b)) => (
-                    [0, 1, 2].map(|i| a[i].min(l.origin[i])),
-                    [0, 1, 2].map(|i| b[i].max(hi[i])),
-                ),
-            });
-        }
-        let voxels = leaves.iter().map(Leaf::active).sum();
-        Self {
-            leaves,
-            bbox,
-            voxels,
-        }
+        Self::from_leaves(leaves, T::ZERO)
     }
 
     /// OpenVDB's `memUsage()`, estimated from node sizes: leaves hold 512
@@ -517,7 +832,7 @@ impl<T: Voxel> Grid<T> {
         &self,
         out: &mut Counting<impl Write>,
         name: &str,
-        geometry: &VolumeGeometry,
+        file: &FileGeometry,
         compression: VdbCompression,
         kind: GridKind,
     ) -> Result<()> {
@@ -526,7 +841,7 @@ impl<T: Voxel> Grid<T> {
         let mut pre = Vec::new();
         put_u32(&mut pre, compression.flags());
         self.metadata(name, compression, kind).write(&mut pre);
-        write_transform(&mut pre, geometry);
+        write_transform(&mut pre, file);
         self.write_topology(&mut pre, compression);
 
         let buffers = self.buffers(compression);
@@ -556,6 +871,7 @@ impl<T: Voxel> Grid<T> {
             "class",
             match kind {
                 GridKind::Fog => "fog volume",
+                GridKind::LevelSet => "level set",
                 GridKind::Vector => "unknown",
             },
         );
@@ -579,7 +895,7 @@ impl<T: Voxel> Grid<T> {
     /// followed by its children, and each leaf's value mask.
     fn write_topology(&self, out: &mut Vec<u8>, compression: VdbCompression) {
         put_u32(out, 1); // buffer count
-        T::ZERO.put(out); // background
+        self.background.put(out);
         let roots = group_by(&self.leaves, |l| l.key().0);
         put_u32(out, 0); // tiles
         put_u32(out, roots.len() as u32); // children
@@ -619,7 +935,10 @@ impl<T: Voxel> Grid<T> {
             .map(|l| {
                 let mut out = Vec::with_capacity(64 + 1 + 512 * T::SIZE + 8);
                 put_words(&mut out, &l.mask);
-                out.push(NO_MASK_OR_INACTIVE_VALS);
+                out.push(l.inactive.code());
+                if let Inactive::Selected(selection) = &l.inactive {
+                    put_words(&mut out, selection);
+                }
                 let mut raw = Vec::with_capacity(512 * T::SIZE);
                 for (off, v) in l.values.iter().enumerate() {
                     if l.mask[off >> 6] >> (off & 63) & 1 == 1 {
@@ -683,13 +1002,12 @@ fn put_data(out: &mut Vec<u8>, raw: &[u8], compression: VdbCompression) {
 /// `Transform::write` of a `UniformScaleTranslateMap`: map type name, then
 /// translation, scale, voxel size, 1/scale, 1/scale², 1/(2 scale), each three
 /// doubles.
-fn write_transform(out: &mut Vec<u8>, geometry: &VolumeGeometry) {
+fn write_transform(out: &mut Vec<u8>, file: &FileGeometry) {
     put_string(out, "UniformScaleTranslateMap");
-    let dx = geometry.cell as f64;
-    let o = geometry.origin.as_dvec3();
+    let dx = file.cell as f64;
     let inv = 1.0 / dx;
     let rows = [
-        [o.x + 0.5 * dx, o.y + 0.5 * dx, o.z + 0.5 * dx],
+        file.first,
         [dx; 3],
         [dx.abs(); 3],
         [inv; 3],
@@ -719,6 +1037,9 @@ impl MetaMap {
     }
     fn int64(&mut self, name: &str, value: i64) {
         self.insert(name, "int64", value.to_le_bytes().to_vec());
+    }
+    fn float(&mut self, name: &str, value: f32) {
+        self.insert(name, "float", value.to_le_bytes().to_vec());
     }
     fn vec3i(&mut self, name: &str, value: [i32; 3]) {
         let bytes = value.iter().flat_map(|c| c.to_le_bytes()).collect();

@@ -186,6 +186,14 @@ impl SolverConfig {
                 )));
             }
         }
+        // Like map_res: a SELMA-only key given to another mode is a mistake
+        // (the default is what every mode's configuration prints).
+        if self.selma_remap != DEFAULT_SELMA_REMAP && self.density != DensityMode::Selma {
+            return Err(InputError::new(format!(
+                "selma_remap {} is only used by --density selma (density is {})",
+                self.selma_remap, self.density
+            )));
+        }
         if self.box_kind == BoxKind::Closed {
             if self.advection == Scheme::Quick {
                 return Err(InputError::new(
