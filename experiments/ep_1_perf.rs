@@ -28,6 +28,13 @@
 //!   2×, the top-octave share, the interpolant at 4096 points); the
 //!   per-step measures ÷ step (issue 16's target ≤ 5 % at 128³) and the
 //!   run's metrics at the default cadence (`metrics_every` = 10) ÷ step;
+//! - **kernel widths**: the same rounds (RK2 and Euler steps on 2
+//!   threads, their stage times) once per instruction set this CPU has
+//!   (`smokelab::simd::Isa::available`: scalar, AVX2 and AVX-512 here; NEON
+//!   on aarch64), each selected in turn as `SMOKELAB_SIMD` would, the
+//!   widths interleaved round by round; and one step of each from one
+//!   state, the fields' bits asserted equal across widths (the experiment
+//!   fails otherwise). `widths.csv`, the second table of `table.md`;
 //! - **peers** (`--peers PYTHON`): `taichi_advect.py N 2 f32` and
 //!   `fft_py.py N 2` from `../shared/peers/` (or `$SMOKELAB_PEERS_DIR`) at
 //!   the same sizes in the same run, each run once right before smokelab's
@@ -54,8 +61,10 @@
 //! spell of a shared machine; with four, one run's 64³ Euler median came
 //! out above its RK2 one — about 2–3 minutes on 2 busy cores, a minute of
 //! it the 256³ setup; the peers add a minute; `--full` 10 and 15 steps;
-//! `--smoke` 16³ and 32³, 1 and 3). Writes `results/perf/`: `data.csv`
-//! (one row per resolution), `time.png` (step time against cells, log-log,
+//! `--smoke` 16³ and 32³, 1 and 3; the widths add the scalar kernel's
+//! steps, about half a minute at 256³). Writes `results/perf/`: `data.csv`
+//! (one row per resolution, the default kernel's), `widths.csv` (one row
+//! per resolution and kernel), `time.png` (step time against cells, log-log,
 //! with the fit, the floor and the peer), `threads.png` (speed-up),
 //! `stages.png` (each stage's share of the step), `table.md` (the table
 //! for the README and the paper), `manifest.json`.
@@ -80,6 +89,7 @@ use smokelab::pressure::periodic_fft::PeriodicFft;
 use smokelab::pressure::PressureSolver;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::{Scenario, SolverConfig};
+use smokelab::simd::Isa;
 use smokelab::simulation::Simulation;
 
 /// Registry entry.
@@ -129,11 +139,14 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
         ctx.progress,
     );
     let mut rows = vec![];
+    let mut widths = vec![];
     let mut peer_rows = peers.as_ref().map(|_| vec![]);
     for &res in &sizes {
         // Each size's peers right before and right after smokelab's.
         let before = peers.as_ref().map(|p| p.measure(res)).transpose()?;
-        rows.push(measure(res, warm, steps, &pools)?);
+        let (row, w) = measure(res, warm, steps, &pools)?;
+        rows.push(row);
+        widths.extend(w);
         if let (Some(p), Some(r), Some(before)) = (&peers, &mut peer_rows, before) {
             r.push(PeerRow {
                 res,
@@ -152,8 +165,11 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
             .collect::<Vec<_>>(),
     );
     write_data(&ctx.out, &rows, peer_rows.as_deref())?;
+    let widths = WidthRow::with_peers(widths, peer_rows.as_deref());
+    crate::table::write_rows(&ctx.out.join("widths.csv"), &widths)?;
     plot(&ctx.out, &rows, peer_rows.as_deref(), fit.map(|f| f.slope))?;
-    let md = table(&rows, peer_rows.as_deref(), fit.map(|f| f.slope));
+    let mut md = table(&rows, peer_rows.as_deref(), fit.map(|f| f.slope));
+    md.push_str(&widths_table(&widths));
     io::write_atomic(&ctx.out.join("table.md"), |w| {
         Ok(std::io::Write::write_all(w, md.as_bytes())?)
     })?;
@@ -166,6 +182,12 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
         "load_before": load_before,
         "load_after": load_after,
         "bitwise_equal_1_vs_2_threads": rows.iter().all(|r| r.bitwise_equal),
+        "simd": {
+            "default": Isa::selected(),
+            "available": Isa::available(),
+            "bitwise_equal_across_widths": true,
+            "widths": "each available instruction set selected in turn (Isa::select, as SMOKELAB_SIMD), its RK2 and Euler steps on 2 threads interleaved with the others' round by round, medians of `timed_steps`; one step of each from one state, the fields' bits equal (asserted); widths.csv",
+        },
         "timed": "Simulation::step only (advect, density, force, project); the run driver's metrics (metrics_ms: run::StepMeasures, fine_metrics_ms: run::FineProbes::measure) are timed apart on the same state, outputs not at all; setup_s (sources' cell averages, plans) is timed apart",
         "default_metrics_every": SolverConfig::default().metrics_every,
         "floor": "min(f32 realfft+rustfft pair, the solver's f64 pair) + five f32 array copies (the fused sweep's 5 fields read and written)",
@@ -289,8 +311,14 @@ fn same_bits(a: &Simulation, b: &Simulation) -> bool {
 
 /// Set up `res`³, warm up on 2 threads, then time `steps` interleaved
 /// rounds: RK2 on 2 and on 1 thread, Euler on 2, both FFT pairs, the
-/// bandwidth pass and the run's per-step and fine measures on 2.
-fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]) -> Result<Row> {
+/// bandwidth pass and the run's per-step and fine measures on 2; then the
+/// same number of rounds of each kernel width ([`measure_widths`]).
+fn measure(
+    res: usize,
+    warm: usize,
+    steps: usize,
+    pools: &[rayon::ThreadPool; 2],
+) -> Result<(Row, Vec<WidthRow>)> {
     let [one, two] = pools;
     let cfg = config(res);
     let t = Instant::now();
@@ -347,9 +375,10 @@ fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]
             "{res}³: the 1-thread and 2-thread steps differ in some bit after {warm}+{steps} steps"
         );
     }
+    let widths = measure_widths(res, steps, two, [&mut double, &mut euler])?;
     let [step, step_1t, step_euler, fft_f32, fft_solver, bandwidth, metrics, fine] = t.map(median);
     let [advect, density, force, project] = stages.map(median);
-    Ok(Row {
+    let row = Row {
         res,
         cells: domain.len(),
         setup_s,
@@ -366,7 +395,140 @@ fn measure(res: usize, warm: usize, steps: usize, pools: &[rayon::ThreadPool; 2]
         metrics_ms: metrics,
         fine_ms: fine,
         bitwise_equal,
-    })
+    };
+    Ok((row, widths))
+}
+
+/// One kernel width's steps at one resolution: medians, ms, on 2 threads.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+struct WidthRow {
+    res: usize,
+    kernel: Isa,
+    lanes: usize,
+    step_ms: f64,
+    advect_ms: f64,
+    project_ms: f64,
+    step_euler_ms: f64,
+    advect_euler_ms: f64,
+    rk2_over_euler: f64,
+    /// The composite peer ÷ this Euler step (NaN without `--peers`).
+    peer_over_step_euler: f64,
+}
+
+impl WidthRow {
+    /// `rows` with their size's peer ratio, when there are peers.
+    fn with_peers(rows: Vec<WidthRow>, peers: Option<&[PeerRow]>) -> Vec<WidthRow> {
+        rows.into_iter()
+            .map(|mut r| {
+                if let Some(p) = peers.and_then(|p| p.iter().find(|p| p.res == r.res)) {
+                    r.peer_over_step_euler = p.composite_ms() / r.step_euler_ms;
+                }
+                r
+            })
+            .collect()
+    }
+}
+
+/// Every instruction set this CPU has, selected in turn: `steps` rounds,
+/// each an RK2 step of `sims[0]` and an Euler step of `sims[1]` per width
+/// (the widths interleaved, so a load that drifts weighs on all alike),
+/// their medians and stage times; and one step of each width from one
+/// state, whose fields must agree to the bit. The default width is
+/// selected again at the end.
+///
+/// # Errors
+/// Two widths whose fields differ in a bit.
+fn measure_widths(
+    res: usize,
+    steps: usize,
+    pool: &rayon::ThreadPool,
+    sims: [&mut Simulation; 2],
+) -> Result<Vec<WidthRow>> {
+    let default = Isa::selected();
+    let isas = Isa::available();
+    let [rk2, euler] = sims;
+    // One step from one state on each width: the same bits.
+    let start = rk2.clone();
+    let mut first: Option<(Isa, Simulation)> = None;
+    for &isa in &isas {
+        isa.select()?;
+        let mut s = start.clone();
+        pool.install(|| s.step());
+        match &first {
+            None => first = Some((isa, s)),
+            Some((f, want)) if !same_bits(want, &s) => {
+                default.select()?;
+                bail!("{res}³: the {isa} and {f} kernels' steps differ in some bit");
+            }
+            Some(_) => {}
+        }
+    }
+    drop((start, first));
+    let mut t = vec![[(); 5].map(|_| Vec::with_capacity(steps)); isas.len()];
+    for _ in 0..steps {
+        for (t, &isa) in t.iter_mut().zip(&isas) {
+            isa.select()?;
+            t[0].push(ms(|| pool.install(|| rk2.step())));
+            t[1].push(rk2.times.advect * 1e3);
+            t[2].push(rk2.times.project * 1e3);
+            t[3].push(ms(|| pool.install(|| euler.step())));
+            t[4].push(euler.times.advect * 1e3);
+        }
+    }
+    default.select()?;
+    Ok(isas
+        .iter()
+        .zip(t)
+        .map(|(&kernel, t)| {
+            let [step, advect, project, step_euler, advect_euler] = t.map(median);
+            WidthRow {
+                res,
+                kernel,
+                lanes: kernel.lanes(),
+                step_ms: step,
+                advect_ms: advect,
+                project_ms: project,
+                step_euler_ms: step_euler,
+                advect_euler_ms: advect_euler,
+                rk2_over_euler: step / step_euler,
+                peer_over_step_euler: f64::NAN,
+            }
+        })
+        .collect())
+}
+
+/// The second table of `table.md`: each kernel width's steps.
+fn widths_table(rows: &[WidthRow]) -> String {
+    let peers = rows.iter().any(|r| r.peer_over_step_euler.is_finite());
+    let mut s = String::from(
+        "\nEach kernel width (`SMOKELAB_SIMD`), the same rounds on 2 threads; the fields agree to the bit:\n\n\
+         | res | kernel | lanes | RK2 step ms | advect | Euler step ms | advect | RK2 ÷ Euler |",
+    );
+    s.push_str(if peers {
+        " peer ÷ Euler step |\n"
+    } else {
+        "\n"
+    });
+    s.push_str("|---|---|---|---|---|---|---|---|");
+    s.push_str(if peers { "---|\n" } else { "\n" });
+    for r in rows {
+        s.push_str(&format!(
+            "| {}³ | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} |",
+            r.res,
+            r.kernel,
+            r.lanes,
+            r.step_ms,
+            r.advect_ms,
+            r.step_euler_ms,
+            r.advect_euler_ms,
+            r.rk2_over_euler
+        ));
+        if peers {
+            s.push_str(&format!(" {:.2} |", r.peer_over_step_euler));
+        }
+        s.push('\n');
+    }
+    s
 }
 
 /// One forward and one inverse real 3D FFT of an `n³` f32 array: the

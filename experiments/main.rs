@@ -27,6 +27,11 @@ fn main() -> ExitCode {
     })
     .expect("no other interrupt handler is installed");
     let cli = Cli::try_parse().unwrap_or_else(|e| e.exit());
+    // An unknown or unavailable `SMOKELAB_SIMD` stops before any work.
+    if let Err(e) = smokelab::simd::Isa::from_env() {
+        eprintln!("error: {e}");
+        return ExitCode::from(2);
+    }
     match execute(cli) {
         Ok(()) => ExitCode::SUCCESS,
         // The interrupt handler removed the file being written, so its write

@@ -31,6 +31,7 @@ pub mod field;
 pub mod grid;
 pub mod fit;
 pub mod timing;
+pub mod simd;
 pub mod io;
 pub mod pressure;
 pub mod advection;

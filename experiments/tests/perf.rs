@@ -53,6 +53,28 @@ fn p1_smoke_measures_every_resolution_and_threads_agree_bitwise() {
     assert!(m["extra"]["load_before"].is_string() && m["extra"]["load_after"].is_string());
     let md = std::fs::read_to_string(out.join("table.md")).unwrap();
     assert!(md.contains("| 16³ |") && md.contains("| 32³ |"), "{md}");
+    // Every kernel width this CPU has, at every size, the default among
+    // them; the widths' fields agreed to the bit (or the run failed).
+    let isas: Vec<String> = smokelab::simd::Isa::available()
+        .iter()
+        .map(|i| i.to_string())
+        .collect();
+    let widths = table(&out.join("widths.csv"));
+    assert_eq!(widths.len(), 2 * isas.len());
+    for (w, (res, isa)) in widths.iter().zip(
+        [16.0, 32.0]
+            .iter()
+            .flat_map(|r| isas.iter().map(move |i| (r, i))),
+    ) {
+        assert_eq!((num(w, "res"), &w["kernel"]), (*res, isa));
+        for col in ["step_ms", "advect_ms", "step_euler_ms", "advect_euler_ms"] {
+            assert!(num(w, col) > 0.0, "{isa} {col}");
+        }
+        assert!(md.contains(&format!("| {res}³ | {isa} |")), "{md}");
+    }
+    assert_eq!(m["extra"]["simd"]["bitwise_equal_across_widths"], true);
+    assert_eq!(m["extra"]["simd"]["default"], m["machine"]["simd"]);
+    assert!(isas.contains(&m["machine"]["simd"].as_str().unwrap().to_string()));
 }
 
 #[test]

@@ -16,10 +16,7 @@
 //! density and the velocity itself move through the same prepared step.
 
 mod closed_faces;
-#[cfg(target_arch = "x86_64")]
-pub(crate) mod simd;
-#[cfg(target_arch = "x86_64")]
-mod simd512;
+pub(crate) mod kernel;
 mod lattice;
 pub mod maccormack;
 pub mod quick;

@@ -112,11 +112,11 @@ pub struct FaceSampler<'a> {
 }
 
 impl<'a> FaceSampler<'a> {
-    /// The component slices `[u, v, w]` (flat `[z][y][x]`) and their lattice
-    /// sizes `[mx, my, mz]`, for kernels that index the lattices themselves.
-    #[cfg(target_arch = "x86_64")]
-    pub(crate) fn lattices(&self) -> ([&'a [f32]; 3], [[usize; 3]; 3]) {
-        (self.data, self.dims)
+    /// The component slices `[u, v, w]` (flat `[z][y][x]`), their lattice
+    /// sizes `[mx, my, mz]`, the domain's cells and the wrap, for kernels
+    /// that index the lattices themselves.
+    pub(crate) fn parts(&self) -> SamplerParts<'a> {
+        (self.data, self.dims, self.cells, self.wrap)
     }
 
     /// The velocity at cell-centre grid coordinates `g` (each component
@@ -247,6 +247,9 @@ impl<'a> FaceSampler<'a> {
         [at(a0, f[b]), at(a0, b1), at(a1, f[b]), at(a1, b1)]
     }
 }
+
+/// [`FaceSampler::parts`]: component slices, lattice sizes, cells, wrap.
+pub(crate) type SamplerParts<'a> = ([&'a [f32]; 3], [[usize; 3]; 3], [usize; 3], Wrap);
 
 /// Linear index of `(i, j, k)` in a lattice `[mx, my, mz]`.
 #[inline(always)]
@@ -543,9 +546,9 @@ impl FaceGrid {
     }
 
     /// [`FaceGrid::sample`] at each of `points` into `out`, the same values
-    /// to the bit: eight points at a time through the AVX2 kernel of the
-    /// semi-Lagrangian sweeps where the CPU has it, the rest (and points
-    /// more than a period outside) through [`FaceSampler::at`].
+    /// to the bit: the semi-Lagrangian kernel's lanes at a time
+    /// (`crate::advection::kernel`), the points it leaves (more than a
+    /// period outside, NaN) through [`FaceSampler::at`].
     ///
     /// # Panics
     /// If `points` and `out` differ in length.
@@ -570,24 +573,15 @@ impl FaceGrid {
             out.len(),
             "sample_points: slice lengths differ"
         );
-        let s = self.sampler();
-        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
-        let mut done = 0;
-        #[cfg(target_arch = "x86_64")]
-        if let Some(lat) = crate::advection::simd::lattices(s) {
-            for (p, o) in points.chunks_exact(8).zip(out.chunks_exact_mut(8)) {
-                let p: [Vec3; 8] = std::array::from_fn(|l| g(p[l]));
-                let o: &mut [Vec3; 8] = o.try_into().expect("eight points");
-                // SAFETY: `lattices` checked the CPU and the lattices.
-                let bad = unsafe { crate::advection::simd::velocities8(lat, s.wrap, &p, o) };
-                for l in (0..8).filter(|l| bad & (1 << l) != 0) {
-                    o[l] = s.at(p[l]);
-                }
+        let vel = crate::advection::kernel::Vel::new(self.sampler());
+        let isa = crate::simd::Isa::selected();
+        let mut at = [Vec3::ZERO; 256];
+        for (p, o) in points.chunks(at.len()).zip(out.chunks_mut(at.len())) {
+            let at = &mut at[..p.len()];
+            for (a, &p) in at.iter_mut().zip(p) {
+                *a = g(p);
             }
-            done = points.len() / 8 * 8;
-        }
-        for (&p, o) in points[done..].iter().zip(&mut out[done..]) {
-            *o = s.at(g(p));
+            crate::advection::kernel::velocities(isa, &vel, at, o);
         }
     }
 

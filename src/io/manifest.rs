@@ -13,6 +13,10 @@ pub struct Machine {
     pub threads: usize,
     /// Operating system.
     pub os: String,
+    /// The instruction set the semi-Lagrangian kernel ran on
+    /// ([`crate::simd::Isa::selected`]: `scalar`, `neon`, `avx2` or
+    /// `avx512`; `SMOKELAB_SIMD` overrides the widest).
+    pub simd: crate::simd::Isa,
 }
 
 impl Machine {
@@ -32,6 +36,7 @@ impl Machine {
             cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
             threads: rayon::current_num_threads(),
             os: std::env::consts::OS.into(),
+            simd: crate::simd::Isa::selected(),
         }
     }
 }
