@@ -390,7 +390,7 @@ pub struct ExperimentArgs {
     /// Hide progress bars.
     #[arg(long)]
     pub quiet: bool,
-    /// Experiment P-1: also run the peer scripts (Taichi, pyFFTW) with this Python.
+    /// Experiment P-1, alone or in `all`: also run the peer scripts (Taichi, pyFFTW) with this Python.
     #[arg(long, value_name = "PYTHON")]
     pub peers: Option<PathBuf>,
     /// Write into `results/` even from a build of a dirty tree (committed
@@ -812,9 +812,9 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     } else {
         registry::Size::Default
     };
-    if args.peers.is_some() && id != crate::ep_1_perf::EXPERIMENT.id {
+    if args.peers.is_some() && id != crate::ep_1_perf::EXPERIMENT.id && id != "all" {
         return Err(InputError::new(format!(
-            "--peers is for experiment {} only",
+            "--peers is for experiment {} (or `all`, which runs it) only",
             crate::ep_1_perf::EXPERIMENT.id
         ))
         .into());
@@ -833,7 +833,13 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
             _ => default_out("all"),
         });
         check_clean_build(&parent, args.allow_dirty)?;
-        return run_all_experiments(&parent, size, !args.quiet, args.overwrite);
+        let options = AllOptions {
+            size,
+            progress: !args.quiet,
+            overwrite: args.overwrite,
+            peers: args.peers.as_deref(),
+        };
+        return run_all_experiments(&parent, &options);
     }
     let exp = registry::find(id)?;
     let out = args.out.clone().unwrap_or_else(|| default_out(exp.folder));
@@ -879,14 +885,79 @@ struct ExperimentRow {
 /// Every folder is checked first ([`output_dir::EXPERIMENT`]): one holding
 /// earlier outputs refuses the whole run unless `overwrite`, and then each
 /// experiment's earlier outputs are removed right before it runs.
-fn run_all_experiments(
-    parent: &std::path::Path,
+/// How `experiment all` runs: the size, progress, `--overwrite`, and the
+/// Python that runs P-1's peers (`--peers`).
+struct AllOptions<'a> {
     size: registry::Size,
     progress: bool,
     overwrite: bool,
-) -> Result<()> {
+    peers: Option<&'a std::path::Path>,
+}
+
+/// The time left of `experiment all`, estimated from the seconds each
+/// experiment took when `experiments.csv` was last written into the same
+/// folder, scaled by this run's pace so far (its seconds over those
+/// recorded, for the experiments done). `None` without a record.
+struct AllEstimate {
+    recorded: std::collections::HashMap<String, f64>,
+    actual: f64,
+    expected: f64,
+}
+
+impl AllEstimate {
+    fn read(table: &std::path::Path) -> Self {
+        let recorded = std::fs::read_to_string(table)
+            .ok()
+            .and_then(|text| {
+                let mut r = csv::Reader::from_reader(text.as_bytes());
+                let rows: Result<Vec<ExperimentRecord>, _> = r.deserialize().collect();
+                rows.ok()
+            })
+            .map(|rows| rows.into_iter().map(|r| (r.id, r.seconds)).collect())
+            .unwrap_or_default();
+        Self {
+            recorded,
+            actual: 0.0,
+            expected: 0.0,
+        }
+    }
+
+    /// Book an experiment done in `seconds`.
+    fn done(&mut self, id: &str, seconds: f64) {
+        if let Some(&e) = self.recorded.get(id) {
+            self.actual += seconds;
+            self.expected += e;
+        }
+    }
+
+    /// Seconds left for `remaining`, if every one of them has a record.
+    fn left<'e>(&self, mut remaining: impl Iterator<Item = &'e str>) -> Option<f64> {
+        let pace = if self.expected > 0.0 {
+            self.actual / self.expected
+        } else {
+            1.0
+        };
+        remaining.try_fold(0.0, |sum, id| Some(sum + self.recorded.get(id)? * pace))
+    }
+}
+
+/// The columns of `experiments.csv` the estimate reads.
+#[derive(serde::Deserialize)]
+struct ExperimentRecord {
+    id: String,
+    seconds: f64,
+}
+
+fn run_all_experiments(parent: &std::path::Path, options: &AllOptions) -> Result<()> {
+    let &AllOptions {
+        size,
+        progress,
+        overwrite,
+        peers,
+    } = options;
     io::check_output_dir(parent)?;
     let table = parent.join("experiments.csv");
+    let mut estimate = AllEstimate::read(&table);
     let mut earlier = Vec::new();
     for exp in registry::ALL {
         let out = parent.join(exp.folder);
@@ -908,20 +979,31 @@ fn run_all_experiments(
         // One bar per experiment, titled with its place in the whole; its
         // runs are its named stages.
         let bar = crate::progress::experiment(&format!("{}/{count} {}", n + 1, exp.id), progress);
-        bar.suspend(|| println!("== experiment {} ({})", exp.id, exp.reproduces));
+        let left = estimate
+            .left(registry::ALL[n..].iter().map(|e| e.id))
+            .map(|s| format!(" · about {:.0} min left in all", (s / 60.0).ceil()))
+            .unwrap_or_default();
+        bar.suspend(|| println!("== experiment {} ({}){left}", exp.id, exp.reproduces));
         let ctx = registry::Context {
             out: out.clone(),
             size,
             progress,
         };
         let start = std::time::Instant::now();
-        let status = match (exp.run)(&ctx) {
+        let result = match peers {
+            Some(python) if exp.id == crate::ep_1_perf::EXPERIMENT.id => {
+                crate::ep_1_perf::run_with_peers(&ctx, Some(python))
+            }
+            _ => (exp.run)(&ctx),
+        };
+        let status = match result {
             Ok(()) => "ok".to_string(),
             Err(e) => {
                 bar.suspend(|| eprintln!("experiment {} failed: {e:#}", exp.id));
                 format!("failed: {e}")
             }
         };
+        estimate.done(exp.id, start.elapsed().as_secs_f64());
         rows.push((exp, start.elapsed().as_secs_f64(), out, status));
     }
     let mut table = format!(
@@ -1027,4 +1109,34 @@ fn frame_render(args: &RunArgs, config: &SolverConfig) -> Result<Option<FrameRen
         &config.domain()?,
     )
     .map(Some)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::AllEstimate;
+
+    #[test]
+    fn all_estimate_scales_the_recorded_seconds_by_the_pace_so_far() {
+        let dir = tempfile::tempdir().unwrap();
+        let table = dir.path().join("experiments.csv");
+        std::fs::write(
+            &table,
+            "id,reproduces,seconds,output,status\n\
+             03-2,fig 3.2,10.0,results/03-2,ok\n\
+             06-1,fig 6.1,20.0,results/06-1,ok\n\
+             06-5,fig 6.5,30.0,results/06-5,ok\n",
+        )
+        .unwrap();
+        let mut e = AllEstimate::read(&table);
+        // Before anything ran: the record as it stands.
+        assert_eq!(e.left(["06-1", "06-5"].into_iter()), Some(50.0));
+        // 03-2 took twice its record: the rest is expected twice as long.
+        e.done("03-2", 20.0);
+        assert_eq!(e.left(["06-1", "06-5"].into_iter()), Some(100.0));
+        // An experiment without a record: no estimate rather than a low one.
+        assert_eq!(e.left(["06-5", "V-1"].into_iter()), None);
+        // No record at all: no estimate.
+        let none = AllEstimate::read(&dir.path().join("missing.csv"));
+        assert_eq!(none.left(["03-2"].into_iter()), None);
+    }
 }
