@@ -7,6 +7,7 @@ import json
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -222,3 +223,13 @@ def test_manifest_attrs_are_flat_and_simple():
         {"config": {"dt": 0.05, "map_res": None, "force": False}, "extra": {"gases": ["a"], "renders": [{"n": 1}]}}
     )
     assert attrs == {"config.dt": 0.05, "config.force": 0, "extra.gases": ["a"], "extra.renders": json.dumps([{"n": 1}])}
+
+
+def test_the_example_script_runs_on_a_run(hot_cold_dir):
+    """python/examples/analyse_run.py, the README's example, prints a line
+    per saved frame with the hot gas rising."""
+    script = Path(__file__).resolve().parents[1] / "examples" / "analyse_run.py"
+    done = subprocess.run([sys.executable, str(script), str(hot_cold_dir)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    rows = [line.split() for line in done.stdout.splitlines()[1:]]
+    assert len(rows) == 3 and all(float(r[4]) > 0 for r in rows[1:]), done.stdout
