@@ -2,10 +2,13 @@
 them (pip `vtk`): geometry, cell order, names and values against the
 `.npy` volumes `open_run` places. Skipped where VTK is not installed.
 
-VTK has no reader for `.pvd` (ParaView's own `vtkPVDReader` reads it), so
-the collection is parsed as the XML it is and each file it lists is read
-by VTK."""
+VTK has no reader for `.pvd`, so the collection is parsed as the XML it
+is and each file it lists is read by VTK; ParaView's own PVD reader
+(`pvpython`, Debian's `paraview`) reads it where installed."""
 
+import json
+import shutil
+import subprocess
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -77,3 +80,42 @@ def test_vti_obstacle_is_negative_inside(slab_dir):
     nx, ny = run.grid.dims[:2]
     assert vtk_to_numpy(image.GetCellData().GetArray("obstacle"))[ijk[0] + nx * (ijk[1] + ny * ijk[2])] < 0
     assert float(run.volumes.obstacle.sel(x=mid[0], y=mid[1], z=mid[2], method="nearest")) > 0
+
+
+PVPYTHON = shutil.which("pvpython")
+
+PVD_SCRIPT = """
+import json, sys
+from paraview.simple import PVDReader, servermanager
+from vtk.util.numpy_support import vtk_to_numpy
+reader = PVDReader(FileName=sys.argv[1])
+reader.UpdatePipeline()
+times = list(reader.TimestepValues)
+sums = []
+for t in times:
+    reader.UpdatePipeline(t)
+    image = servermanager.Fetch(reader)
+    sums.append(float(vtk_to_numpy(image.GetCellData().GetArray("hot")).astype("float64").sum()))
+print("REPORT " + json.dumps({"times": times, "arrays": sorted(reader.CellData.keys()), "hot_sums": sums}))
+"""
+
+
+@pytest.mark.skipif(PVPYTHON is None, reason="ParaView is not installed (apt-get install paraview)")
+def test_paraview_reads_run_pvd_as_a_time_series(hot_cold_dir, tmp_path):
+    """ParaView's own PVD reader (pvpython) takes run.pvd as one time series
+    whose time t shows the frame open_run puts at t."""
+    script = tmp_path / "pvd.py"
+    script.write_text(PVD_SCRIPT)
+    done = subprocess.run(
+        [PVPYTHON, "--force-offscreen-rendering", str(script), str(hot_cold_dir / "run.pvd")],
+        capture_output=True, text=True, timeout=300,
+    )
+    lines = [l for l in done.stdout.splitlines() if l.startswith("REPORT ")]
+    assert done.returncode == 0 and lines, done.stdout + done.stderr
+    report = json.loads(lines[-1][len("REPORT "):])
+    vol = sx.open_run(hot_cold_dir).volumes
+    assert report["arrays"] == ["cold", "hot", "vel"]
+    np.testing.assert_allclose(report["times"], vol.time, rtol=1e-6)
+    sums = vol.hot.astype("float64").sum(("x", "y", "z"))
+    assert len(set(np.round(sums.values, 6))) == 3  # the frames differ, so a mix-up shows
+    np.testing.assert_allclose(report["hot_sums"], sums, rtol=1e-9)
