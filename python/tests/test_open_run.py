@@ -167,6 +167,18 @@ def test_experiment_folder_has_tables_and_runs(tmp_path):
     assert sub.metrics.sizes["step"] == sub.manifest["config"]["frames"]
 
 
+def test_a_folder_of_runs_without_a_manifest_opens_as_its_runs(hot_cold_dir, tmp_path):
+    """As results/06-6: an experiment's data.csv and run subfolders, no
+    manifest of its own."""
+    (tmp_path / "hot-cold").symlink_to(hot_cold_dir)
+    (tmp_path / "data.csv").write_text("a,b\n1,2\n")
+    run = sx.open_run(tmp_path)
+    assert run.manifest == {} and list(run.runs) == ["hot-cold"]
+    assert int(run.tables["data"].b.sel(row=0)) == 2
+    assert run.volumes.sizes == {} and run.metrics.sizes == {}
+    assert run.runs["hot-cold"].volumes.sizes["step"] == 3
+
+
 def test_a_frame_missing_a_file_is_left_out_with_a_warning(hot_cold_dir, tmp_path):
     copy = tmp_path / "run"
     shutil.copytree(hot_cold_dir, copy)
@@ -186,7 +198,7 @@ def write(path, text):
     [
         (lambda d: d / "missing", r"missing does not exist"),
         (lambda d: write(d / "file", "x") / "file", r"file is not a folder"),
-        (lambda d: d, r"has no manifest.json, so it is not a smokelab run"),
+        (lambda d: d, r"has no manifest.json and no subfolder with one, so it is not a smokelab run"),
         (lambda d: write(d / "manifest.json", "{"), r"manifest.json cannot be read as JSON"),
         (lambda d: write(d / "manifest.json", "[1]"), r"is not a smokelab manifest"),
     ],

@@ -65,8 +65,13 @@ def open_run(path) -> "Run":
     on first use (``run.volumes`` loads every saved frame into memory; use
     ``run.open_volumes(steps=[...])`` for a few).
 
+    A folder without ``manifest.json`` whose subfolders have one (an
+    experiment that writes none of its own, or ``results/``) opens with an
+    empty manifest, its runs in ``run.runs``.
+
     Raises ``NotARunError`` (a ``ValueError``) with a message naming the path
-    if it is missing, not a folder, or has no readable ``manifest.json``.
+    if it is missing, not a folder, has an unreadable ``manifest.json``, or
+    has none and no subfolder with one.
 
     >>> run = open_run("runs/hot-cold-1700000000")      # doctest: +SKIP
     >>> run.volumes.hot.sel(step=100).mean("x")         # doctest: +SKIP
@@ -83,7 +88,8 @@ class Run:
         self.manifest = _read_manifest(path)
 
     def __repr__(self) -> str:
-        return f"<smokelab run {self.path} ({self.manifest.get('status', '?')})>"
+        status = self.manifest.get("status", f"no manifest, {len(self.runs)} runs")
+        return f"<smokelab run {self.path} ({status})>"
 
     @cached_property
     def attrs(self) -> dict:
@@ -242,9 +248,9 @@ def _read_manifest(path: Path) -> dict:
         raise NotARunError(f"{path} is not a folder; {hint}")
     manifest = path / "manifest.json"
     if not manifest.is_file():
-        inside = sorted(p.name for p in path.iterdir() if (p / "manifest.json").is_file())
-        also = f" (its subfolders {', '.join(inside[:6])}{'…' if len(inside) > 6 else ''} are)" if inside else ""
-        raise NotARunError(f"{path} has no manifest.json, so it is not a smokelab run{also}; {hint}")
+        if any((p / "manifest.json").is_file() for p in path.iterdir()):
+            return {}  # a folder of runs (an experiment's, or results/): see Run.runs
+        raise NotARunError(f"{path} has no manifest.json and no subfolder with one, so it is not a smokelab run; {hint}")
     try:
         value = json.loads(manifest.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
