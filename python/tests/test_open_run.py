@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import smokelab_xr as sx
-from conftest import HOT_CENTRE
+from conftest import HOT_CENTRE, smokelab
 
 
 def centroid(field, dims=("x", "y", "z")):
@@ -156,8 +156,6 @@ def test_experiment_folder_has_tables_and_runs(tmp_path):
     """An experiment's folder (06-3 at smoke size): its own CSVs as tables,
     its runs as sub-runs that open like any run."""
     out = tmp_path / "06-3"
-    from conftest import smokelab
-
     smokelab("experiment", "06-3", "--smoke", "--out", out)
     run = sx.open_run(out)
     assert run.tables["summary"].sizes["row"] > 0
