@@ -1,0 +1,20 @@
+"""smokelab's outputs as labelled xarray Datasets.
+
+>>> import smokelab_xr as sx
+>>> run = sx.open_run("runs/hot-cold-1700000000")     # doctest: +SKIP
+>>> run.volumes.hot                # (step, z, y, x), coordinates in world units
+>>> run.volumes.u                  # (step, z, y, x_face): the staggered x-velocity
+>>> run.metrics.div_rms            # over step, with time as a coordinate
+>>> run.manifest["config"]["dt"]   # or run.volumes.attrs["config.dt"]
+
+Select by position, never by array index: ``run.volumes.hot.sel(x=5.0,
+method="nearest")``; the array order (``[z][y][x]``) and the staggering (u on
+the x-faces, …) are in the dims and coordinates. See ``smokelab_xr.run`` for
+what each file becomes and ``smokelab_xr.grid`` for the conventions.
+"""
+
+from .grid import Grid
+from .run import NotARunError, Run, flatten_manifest, open_run
+
+__all__ = ["Grid", "NotARunError", "Run", "flatten_manifest", "open_run"]
+__version__ = "0.1.0"
