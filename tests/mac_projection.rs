@@ -673,40 +673,6 @@ fn taylor_green_decays_as_exp_minus_two_nu_t() {
     }
 }
 
-/// Time of one `project` (median of 7 after a warm-up); run with
-/// `cargo test --release --test mac_projection -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn time_projection() {
-    for n in [64usize, 128] {
-        for kind in BoxKind::ALL {
-            let d = Domain::cube(n, 1.0).unwrap();
-            let mut u = random_faces(d, kind, 1);
-            let mut solver = PressureSolver::new(d, kind);
-            solver.project(&mut u);
-            let mut times: Vec<f64> = (0..7)
-                .map(|s| {
-                    let mut v = random_faces(d, kind, s + 2);
-                    let t = std::time::Instant::now();
-                    solver.project(&mut v);
-                    t.elapsed().as_secs_f64() * 1e3
-                })
-                .collect();
-            times.sort_by(f64::total_cmp);
-            let mut v = random_faces(d, kind, 3);
-            let t = std::time::Instant::now();
-            solver.diffuse(&mut v, 0.1, 0.01).unwrap();
-            let diffuse = t.elapsed().as_secs_f64() * 1e3;
-            println!(
-                "{n}³ {kind}: project {:.1} ms (min {:.1}), diffuse {diffuse:.1} ms, threads {}",
-                times[3],
-                times[0],
-                rayon::current_num_threads()
-            );
-        }
-    }
-}
-
 /// The sampler's shortcuts are the point query itself: at every cell centre
 /// `at_cell` and at every face `at_face` agree with the trilinear `at`
 /// (and with a plain per-component [`smokelab::grid::Stencil`] sample) to
