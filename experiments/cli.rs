@@ -27,9 +27,22 @@ use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
 use smokelab::scenario::slab_box::SlabBoxConfig;
 use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig};
 
+/// `--version`: the package version and the git commit the library was
+/// built from (`-dirty` when the tree had changes).
+fn version() -> &'static str {
+    static VERSION: std::sync::LazyLock<String> = std::sync::LazyLock::new(|| {
+        format!(
+            "{} ({})",
+            env!("CARGO_PKG_VERSION"),
+            smokelab::io::manifest::BUILD_COMMIT
+        )
+    });
+    &VERSION
+}
+
 /// Navier–Stokes smoke with gridded, gridless and SELMA density.
 #[derive(Debug, Parser)]
-#[command(name = "smokelab", version, about)]
+#[command(name = "smokelab", version = version(), about)]
 pub struct Cli {
     /// What to do (default: `run hot-cold`).
     #[command(subcommand)]
@@ -94,7 +107,8 @@ pub struct RunArgs {
     /// continue the run, killed or complete.
     #[arg(long, value_name = "K")]
     pub checkpoint_every: Option<usize>,
-    /// Continue the killed run in RUN_DIR from its `checkpoint.bin`, with the
+    /// Continue the run in RUN_DIR (killed, or complete to extend it with
+    /// `--frames`) from its `checkpoint.bin`, with the
     /// configuration and flags recorded there (only `--frames`, `--threads`
     /// and `--quiet` may be given; `--frames N` changes the total).
     #[arg(long, value_name = "RUN_DIR")]
@@ -135,7 +149,7 @@ pub struct SolverFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub size: Option<f32>,
-    /// The box's faces: periodic, or closed (walls with no normal flow; SL and gridded only).
+    /// The box's faces: periodic, or closed (walls with no normal flow; SL or MacCormack with gridded density only).
     #[arg(long = "box", value_enum)]
     #[serde(rename = "box", skip_serializing_if = "Option::is_none")]
     pub box_kind: Option<BoxKind>,
@@ -236,9 +250,9 @@ pub struct SceneFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub offset: Option<f32>,
-    /// How the pressure solve treats obstacles (slab-box): `exact` (cut
-    /// cells, no flux through closed faces) or `notes` (eqs 6.6–6.7 after a
-    /// periodic projection, `--boundary-passes` times).
+    /// How the pressure solve treats obstacles (slab-box): `exact` (solved
+    /// over the fluid cells, no flux through closed faces) or `notes` (eqs
+    /// 6.6–6.7 after a periodic projection, `--boundary-passes` times).
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub obstacles: Option<ObstacleMethod>,

@@ -14,6 +14,7 @@ pub mod export;
 pub mod render_command;
 pub mod noise_command;
 pub mod paper;
+pub mod paper_values;
 pub mod gallery;
 pub mod claims;
 pub mod progress;

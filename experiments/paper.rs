@@ -4,7 +4,9 @@
 //! The Markdown is the source. Blocks between `<!-- name:begin -->` and
 //! `<!-- name:end -->` markers are copied from files the experiments write
 //! (the convergence orders table from `results/convergence/orders.md`; the
-//! claims table measured from the results by [`crate::claims`]), so
+//! claims table measured from the results by [`crate::claims`]), and the
+//! numbers of the prose are read from the results files they name
+//! ([`crate::paper_values`]), so
 //! re-running an experiment and then `smokelab paper` updates the paper.
 //! If `pandoc` is on the PATH the paper is also written to
 //! `paper/paper.html`; without it the command says so and succeeds. An
@@ -116,7 +118,7 @@ fn performance(perf: &Path) -> Result<String> {
     )
     .with_context(|| format!("{}/manifest.json is not JSON", perf.display()))?;
     let extra = &manifest["extra"];
-    let load = |k: &str| extra[k].as_str().unwrap_or("unrecorded").to_string();
+    let load = |k: &str| load_average(extra[k].as_str());
     let peers = if extra["peers"].is_object() {
         "Peer: Taichi's fused semi-Lagrangian advection of five fields (Euler \
          backtrace) plus three pyFFTW f32 pairs, run right before and right \
@@ -138,6 +140,18 @@ fn performance(perf: &Path) -> Result<String> {
         load("load_before"),
         load("load_after"),
     ))
+}
+
+/// The 1-, 5- and 15-minute load averages of a recorded `/proc/loadavg` line
+/// (`"2.35 2.37 3.79 1/84 7355"` → `"2.35, 2.37, 3.79"`); `unrecorded`
+/// without one.
+fn load_average(line: Option<&str>) -> String {
+    let fields: Vec<&str> = line.unwrap_or("").split_whitespace().take(3).collect();
+    if fields.len() == 3 {
+        fields.join(", ")
+    } else {
+        "unrecorded".into()
+    }
 }
 
 /// `doc` (the Markdown at `md`) with the alt text of every image whose
@@ -184,6 +198,44 @@ pub fn generated_alt_texts(doc: &str, md: &Path) -> Result<String> {
 /// Missing paper or results files, or a failing pandoc.
 pub fn build(root: &Path) -> Result<()> {
     let md = root.join("paper/paper.md");
+    let doc = refreshed(root)?;
+    io::write_atomic(&md, |w| {
+        use std::io::Write;
+        Ok(w.write_all(doc.as_bytes())?)
+    })?;
+    println!("refreshed {}", md.display());
+    let html = root.join("paper/paper.html");
+    match Command::new("pandoc")
+        .arg(&md)
+        .args(["--standalone", "--mathml", "--metadata"])
+        // `pagetitle` names the page without a second title above the
+        // paper's own heading.
+        .arg("pagetitle=smokelab: resolution-independent smoke, reproduced")
+        .arg(format!("--variable=header-includes:{HTML_STYLE}"))
+        .arg("-o")
+        .arg(&html)
+        .current_dir(md.parent().unwrap_or(root))
+        .status()
+    {
+        Ok(s) if s.success() => println!("wrote {}", html.display()),
+        Ok(s) => bail!("pandoc failed ({s}) building {}", html.display()),
+        Err(_) => println!("pandoc not found: the Markdown is the paper; install pandoc for HTML"),
+    }
+    Ok(())
+}
+
+/// Style added to the HTML page: wide tables scroll sideways instead of
+/// being clipped by the page's column, and images fit it.
+const HTML_STYLE: &str = "<style>table { display: block; overflow-x: auto; max-width: 100%; } \
+                          img { max-width: 100%; height: auto; }</style>";
+
+/// `root/paper/paper.md` with its generated blocks and alt texts refreshed
+/// from `root/results/`: what `smokelab paper` writes.
+///
+/// # Errors
+/// Missing paper or results files.
+pub fn refreshed(root: &Path) -> Result<String> {
+    let md = root.join("paper/paper.md");
     let mut doc =
         std::fs::read_to_string(&md).with_context(|| format!("cannot read {}", md.display()))?;
     let orders = root.join("results/convergence/orders.md");
@@ -206,31 +258,22 @@ pub fn build(root: &Path) -> Result<()> {
             &crate::claims::table(&root.join("results"))?,
         )?;
     }
-    io::write_atomic(&md, |w| {
-        use std::io::Write;
-        Ok(w.write_all(doc.as_bytes())?)
-    })?;
-    println!("refreshed {}", md.display());
-    let html = root.join("paper/paper.html");
-    match Command::new("pandoc")
-        .arg(&md)
-        .args(["--standalone", "--mathml", "--metadata"])
-        .arg("title=smokelab: resolution-independent smoke, reproduced")
-        .arg("-o")
-        .arg(&html)
-        .current_dir(md.parent().unwrap_or(root))
-        .status()
-    {
-        Ok(s) if s.success() => println!("wrote {}", html.display()),
-        Ok(s) => bail!("pandoc failed ({s}) building {}", html.display()),
-        Err(_) => println!("pandoc not found: the Markdown is the paper; install pandoc for HTML"),
-    }
-    Ok(())
+    crate::paper_values::fill(&doc, &root.join("results"))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn load_average_keeps_the_three_averages() {
+        assert_eq!(
+            load_average(Some("2.35 2.37 3.79 1/84 7355")),
+            "2.35, 2.37, 3.79"
+        );
+        assert_eq!(load_average(Some("2.35")), "unrecorded");
+        assert_eq!(load_average(None), "unrecorded");
+    }
 
     #[test]
     fn alt_texts_come_from_generated_captions() {
@@ -276,7 +319,7 @@ mod tests {
         manifest(serde_json::json!("absent: run with --peers PYTHON"));
         let text = performance(dir.path()).unwrap();
         assert!(text.ends_with("| res |\n|---|\n| 32³ |\n"), "{text}");
-        assert!(text.contains("before the run: 0.31 0.40 0.52 1/200 7; after: 1.90"));
+        assert!(text.contains("before the run: 0.31, 0.40, 0.52; after: 1.90, 0.80, 0.60."));
         assert!(text.contains("were not run"));
         manifest(serde_json::json!({"python": "/x/python"}));
         assert!(performance(dir.path()).unwrap().contains("Taichi's fused"));

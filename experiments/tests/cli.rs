@@ -482,3 +482,24 @@ fn a_huge_cfl_number_is_warned_about() {
     assert_eq!(err.matches("warning: CFL number").count(), 1, "{err}");
     assert!(err.contains("lower --dt or --gravity"), "{err}");
 }
+
+/// `--version` names the package version and the commit the binary was
+/// built from, so a bug report says which code ran.
+#[test]
+fn version_prints_the_version_and_the_commit() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = smokelab(&["--version"], dir.path());
+    assert!(o.status.success());
+    let out = String::from_utf8_lossy(&o.stdout);
+    let expected = format!("smokelab {} (", env!("CARGO_PKG_VERSION"));
+    assert!(out.starts_with(&expected), "{out:?}");
+    let commit = out
+        .trim()
+        .trim_start_matches(&expected)
+        .trim_end_matches(')');
+    let hash = commit.trim_end_matches("-dirty");
+    assert!(
+        commit == "unknown" || (hash.len() == 40 && hash.chars().all(|c| c.is_ascii_hexdigit())),
+        "{out:?} names no commit"
+    );
+}

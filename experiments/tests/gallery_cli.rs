@@ -103,6 +103,12 @@ fn a_small_results_tree_is_shown_whole() {
     );
     write_png(&results.join("06-1/sequence.png"));
     std::fs::write(results.join("06-1/sequence.svg"), SVG).unwrap();
+    std::fs::write(
+        results.join("06-1/figures.json"),
+        r#"{"sequence.png": "Rows: passing; head-on."}"#,
+    )
+    .unwrap();
+    write_png(&results.join("06-1/preview_0001.png"));
     write_manifest(
         &results.join("extra"),
         "smokelab run hot-cold --set 'a=<1>'",
@@ -142,11 +148,25 @@ fn a_small_results_tree_is_shown_whole() {
     assert!(run_prov.contains("beef003"), "{run_prov}");
     // An SVG without a PNG twin is shown itself.
     assert!(html.contains("<img src=\"extra/overview.svg\""));
-    // No caption source: the file name and the experiment's title.
-    assert!(html.contains(&format!(
-        "sequence.png — {}",
-        registry::find("06-1").unwrap().title
-    )));
+    // The section is anchored by the experiment's id, and the contents
+    // link to it.
+    assert!(html.contains("<section id=\"06-1\">"), "no #06-1 section");
+    assert!(html.contains("href=\"#06-1\""), "no link to #06-1");
+    // The captioned figure first, with its generated caption; the preview,
+    // which has no caption, folded away after it, captioned by nothing but
+    // its path (no caption repeats the title).
+    let section = html.split("<section id=\"06-1\">").nth(1).unwrap();
+    let section = section.split("</section>").next().unwrap();
+    let (open, folded) = section
+        .split_once("<details>")
+        .expect("previews folded away");
+    assert!(open.contains("Rows: passing; head-on.<br><code>06-1/sequence.png</code>"));
+    assert!(!open.contains("preview_0001"), "{open}");
+    assert!(
+        folded.contains("<figcaption><code>06-1/preview_0001.png</code>"),
+        "{folded}"
+    );
+    assert!(!html.contains(&format!(" — {}", registry::find("06-1").unwrap().title)));
     // Nothing but the page was written.
     let mut written: Vec<_> = std::fs::read_dir(results)
         .unwrap()

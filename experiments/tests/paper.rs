@@ -1,5 +1,6 @@
-//! `paper/paper.md`: every link resolves to a file under `results/`, and its
-//! figures table names every registered experiment.
+//! `paper/paper.md`: every link resolves to a file under `results/`, its
+//! figures table names every registered experiment, and it is the paper
+//! `smokelab paper` makes from the committed results.
 
 use std::path::{Path, PathBuf};
 
@@ -82,22 +83,29 @@ fn paper_builds_from_a_subfolder() {
     assert!(md.contains("| new |") && !md.contains("old"), "{md}");
 }
 
-/// The claims table in the paper is the one the committed results give:
-/// regenerating results without `smokelab paper` fails here.
+/// The committed paper is the one `smokelab paper` makes from the committed
+/// results: its claims, orders and performance blocks and its figure
+/// captions. Regenerating results without `smokelab paper` fails here.
 #[test]
-fn claims_table_matches_the_committed_results() {
+fn committed_paper_matches_the_committed_results() {
     let (dir, text) = paper();
-    let results = dir.parent().unwrap().join("results");
-    let table = smokelab_app::claims::table(&results).unwrap();
-    let begin = "<!-- claims:begin -->";
-    let (b, e) = (
-        text.find(begin).expect("a claims block") + begin.len(),
-        text.find("<!-- claims:end -->")
-            .expect("a claims block end"),
-    );
+    let root = dir.parent().unwrap();
+    let regenerated = smokelab_app::paper::refreshed(root).unwrap();
+    if let Some(line) = text
+        .lines()
+        .zip(regenerated.lines())
+        .position(|(a, b)| a != b)
+    {
+        panic!(
+            "paper/paper.md is stale at line {}: run `smokelab paper --overwrite` and commit it\n\
+             committed:   {}\nregenerated: {}",
+            line + 1,
+            text.lines().nth(line).unwrap(),
+            regenerated.lines().nth(line).unwrap()
+        );
+    }
     assert_eq!(
-        text[b..e].trim(),
-        table.trim(),
-        "paper/paper.md's claims table is stale: run `smokelab paper`"
+        text, regenerated,
+        "paper/paper.md is stale at its end: run `smokelab paper --overwrite`"
     );
 }

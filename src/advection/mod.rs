@@ -61,10 +61,10 @@ pub enum Scheme {
     /// Semi-Lagrangian with trilinear interpolation (eqs 6.4–6.5).
     #[default]
     Sl,
-    /// QUICK finite volumes with SSP-RK3 and CFL sub-steps ([`quick`]).
+    /// QUICK finite volumes with SSP-RK3 and CFL sub-steps.
     Quick,
     /// MacCormack (Selle et al. 2008) on the semi-Lagrangian steps, with
-    /// the min/max clamp ([`maccormack`]).
+    /// the min/max clamp.
     #[serde(rename = "maccormack")]
     #[cfg_attr(feature = "clap", value(name = "maccormack"))]
     MacCormack,

@@ -86,7 +86,8 @@ impl BoundaryRule {
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum ObstacleMethod {
-    /// Cut-cell pressure solve: no flux through closed faces.
+    /// Pressure solve over the fluid cells (conjugate gradients): no flux
+    /// through closed faces.
     #[default]
     Exact,
     /// Eqs 6.6–6.7 alternated with the periodic projection (the notes).

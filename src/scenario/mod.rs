@@ -21,7 +21,7 @@ pub enum ScenarioKind {
     /// Buoyant gas in a closed box flowing around a slab (§6.3, fig 6.6).
     SlabBox,
     /// A sphere in LeVeque's 3D deformation field, returning at one period
-    /// (prescribed velocity; [`prescribed`]).
+    /// (prescribed velocity, `scenario::prescribed`).
     Deformation,
     /// Zalesak's slotted sphere in rigid rotation (prescribed velocity).
     Zalesak,

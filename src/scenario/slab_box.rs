@@ -54,7 +54,7 @@ pub struct SlabBoxConfig {
     pub slab_min: [f32; 3],
     /// Upper corner of the slab.
     pub slab_max: [f32; 3],
-    /// How the pressure solve treats the obstacles: `exact` (cut cells, no
+    /// How the pressure solve treats the obstacles: `exact` (whole faces, no
     /// flux through closed faces) or `notes` (eqs 6.6–6.7 with the periodic
     /// projection).
     pub obstacles: ObstacleMethod,
