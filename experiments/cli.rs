@@ -25,7 +25,9 @@ use smokelab::render::camera::parse_image_size;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
 use smokelab::scenario::slab_box::SlabBoxConfig;
+use smokelab::scenario::taylor_green::TaylorGreenConfig;
 use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig};
+use smokelab::simulation::Simulation;
 
 /// `--version`: the package version and the git commit the library was
 /// built from (`-dirty` when the tree had changes).
@@ -279,34 +281,61 @@ pub struct SceneFlags {
     #[arg(long, value_name = "FILE.npy")]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub initial: Option<PathBuf>,
+    /// Amplitude A of the Taylor–Green vortex at t = 0 (taylor-green; its
+    /// exact decay `A e^{−2νk²t}` is measured in `exact.csv`).
+    #[arg(long, allow_negative_numbers = true)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub amplitude: Option<f32>,
 }
 
-/// `exact.csv` of a prescribed-flow run: at every saved frame the density
-/// against the exact solution ([`smokelab::scenario::prescribed::Exact`]):
-/// L1 and L∞ return errors at full periods, mass, volume of ρ > ½ and peak.
+/// One row of `exact.csv` (without frame and time) for a state.
+type Measure = Box<dyn Fn(&Simulation) -> String>;
+
+/// `exact.csv`: at every saved frame the run against its scenario's exact
+/// solution. A prescribed-flow run measures its density
+/// ([`smokelab::scenario::prescribed::Exact`]: L1 and L∞ return errors at
+/// full periods, mass, volume of ρ > ½, peak); a Taylor–Green run its
+/// velocity ([`smokelab::scenario::taylor_green::TaylorGreen`]: relative L2
+/// and L∞ errors, kinetic energy and the exact energy).
 struct ExactLog {
-    exact: smokelab::scenario::prescribed::Exact,
+    measure: Measure,
     path: PathBuf,
     rows: String,
 }
 
 impl ExactLog {
-    fn new(exact: smokelab::scenario::prescribed::Exact, out: &std::path::Path) -> Self {
-        Self {
-            exact,
+    /// The log of scenario `config` run as `sim` (just built), if it knows
+    /// an exact solution.
+    fn of<C: Scenario>(config: &C, sim: &Simulation, out: &std::path::Path) -> Option<Self> {
+        let (header, measure): (_, Measure) = if let Some(exact) = config.exact(sim) {
+            let measure = move |sim: &Simulation| {
+                let m = exact.measure(sim.gases[0].density(), sim.time(), sim.params.dt);
+                format!("{},{},{},{},{}", m.l1, m.linf, m.mass, m.volume, m.peak)
+            };
+            ("l1,linf,mass,volume_half,peak", Box::new(measure))
+        } else {
+            let flow = config.exact_velocity()?;
+            let measure = move |sim: &Simulation| {
+                let m = flow.measure(&sim.velocity, sim.time());
+                format!("{},{},{},{}", m.l2, m.linf, m.energy, m.energy_exact)
+            };
+            ("l2,linf,energy,energy_exact", Box::new(measure))
+        };
+        Some(Self {
+            measure,
             path: out.join("exact.csv"),
-            rows: "frame,t,l1,linf,mass,volume_half,peak\n".into(),
-        }
+            rows: format!("frame,t,{header}\n"),
+        })
     }
 
     /// One row for the state `sim` reached, and the file rewritten whole.
-    fn record(&mut self, sim: &smokelab::simulation::Simulation) -> Result<()> {
+    fn record(&mut self, sim: &Simulation) -> Result<()> {
         use std::io::Write as _;
-        let (t, dt) = (sim.time(), sim.params.dt);
-        let m = self.exact.measure(sim.gases[0].density(), t, dt);
         self.rows += &format!(
-            "{},{t},{},{},{},{},{}\n",
-            sim.step_index, m.l1, m.linf, m.mass, m.volume, m.peak
+            "{},{},{}\n",
+            sim.step_index,
+            sim.time(),
+            (self.measure)(sim)
         );
         io::write_atomic(&self.path, |w| Ok(w.write_all(self.rows.as_bytes())?))
     }
@@ -367,6 +396,7 @@ fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
         (SlabBoxConfig::NAME, config::keys::<SlabBoxConfig>()),
         (DeformationConfig::NAME, config::keys::<DeformationConfig>()),
         (ZalesakConfig::NAME, config::keys::<ZalesakConfig>()),
+        (TaylorGreenConfig::NAME, config::keys::<TaylorGreenConfig>()),
     ]
 }
 
@@ -494,6 +524,7 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
         ScenarioKind::SlabBox => run_config(args, &args.resolve::<SlabBoxConfig>()?),
         ScenarioKind::Deformation => run_config(args, &args.resolve::<DeformationConfig>()?),
         ScenarioKind::Zalesak => run_config(args, &args.resolve::<ZalesakConfig>()?),
+        ScenarioKind::TaylorGreen => run_config(args, &args.resolve::<TaylorGreenConfig>()?),
     }
 }
 
@@ -554,7 +585,7 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
     io::create_output_dir(&out)?;
     set_running(&out, checkpoints.is_some());
     let opts = run_options(out.clone(), s, args.quiet, render, (vdb, args.paraview));
-    let mut exact = config.exact(&sim).map(|e| ExactLog::new(e, &out));
+    let mut exact = ExactLog::of(config, &sim, &out);
     let summary = match (&checkpoints, exact.as_mut()) {
         (Some(c), _) => run::run_checkpointed(&mut sim, &opts, config, s.seed, c)?,
         (None, Some(log)) => {
@@ -626,6 +657,7 @@ fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
         ScenarioKind::SlabBox => resume_config::<SlabBoxConfig>(args, dir, &checkpoint),
         ScenarioKind::Deformation => resume_config::<DeformationConfig>(args, dir, &checkpoint),
         ScenarioKind::Zalesak => resume_config::<ZalesakConfig>(args, dir, &checkpoint),
+        ScenarioKind::TaylorGreen => resume_config::<TaylorGreenConfig>(args, dir, &checkpoint),
     }
 }
 

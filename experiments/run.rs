@@ -713,6 +713,10 @@ pub fn write_frame(
         &out.join(format!("vel_{frame:04}.npy")),
         sim.velocity.to_cell_centres().data(),
     )?;
+    // A run without gases (taylor-green) has nothing to preview.
+    if sim.gases.is_empty() {
+        return Ok(());
+    }
     io::write_png(&preview_path(out, frame), &preview_image(sim))
 }
 

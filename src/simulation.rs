@@ -153,7 +153,7 @@ pub trait PrescribedVelocity: Send + Sync {
 }
 
 /// A [`PrescribedVelocity`] frozen at one time, as a field.
-struct AtTime<'a>(&'a dyn PrescribedVelocity, f32);
+pub struct AtTime<'a>(pub &'a dyn PrescribedVelocity, pub f32);
 
 impl VectorField for AtTime<'_> {
     fn eval(&self, p: Vec3) -> Vec3 {

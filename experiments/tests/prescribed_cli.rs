@@ -1,4 +1,4 @@
-//! `smokelab run deformation` and `zalesak`: every density mode with every
+//! `smokelab run deformation`, `zalesak` and `taylor-green`: every density mode with every
 //! scheme, `--initial FILE.npy` (f32 or f64, its shape checked) and the
 //! `exact.csv` measures.
 
@@ -157,4 +157,78 @@ fn initial_density_from_a_file_with_its_shape_checked() {
         !d.join("refused").exists(),
         "a refused run wrote its folder"
     );
+}
+
+/// `smokelab run taylor-green`: `exact.csv` holds the solver's velocity
+/// against the exact vortex at every saved frame — the exact energy is
+/// `e^{−4νk²t}`, the solver's below it (numerical damping) and the error
+/// growing with t; a closed box, a zero amplitude and a negative ν are
+/// refused with exit 2 naming the value.
+#[test]
+fn taylor_green_measures_the_solver_against_the_exact_vortex() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = smokelab(
+        &[
+            "run",
+            "taylor-green",
+            "--res",
+            "16",
+            "--frames",
+            "8",
+            "--advection",
+            "maccormack",
+            "--save-every",
+            "4",
+            "--quiet",
+            "--out",
+            "tg",
+        ],
+        d,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows = table(&d.join("tg/exact.csv"));
+    assert_eq!(rows.len(), 2, "rows at frames 4 and 8");
+    let (nu, k) = (0.05, 1.0);
+    for r in &rows {
+        let t = num(r, "t");
+        let exact = (-4.0 * nu * k * k * t).exp();
+        assert!(
+            (num(r, "energy_exact") - exact).abs() < 1e-6,
+            "exact energy {} at t {t}, expected {exact}",
+            num(r, "energy_exact")
+        );
+        assert!(
+            num(r, "energy") < exact,
+            "energy {} at t {t}",
+            num(r, "energy")
+        );
+        assert!(
+            num(r, "l2") > 0.0 && num(r, "l2") < 0.1,
+            "L2 {}",
+            num(r, "l2")
+        );
+    }
+    assert!(num(&rows[1], "l2") > num(&rows[0], "l2"));
+    for (flag, value, named) in [
+        ("--box", "closed", "box periodic"),
+        ("--amplitude", "0", "amplitude"),
+        ("--nu", "-1", "nu"),
+    ] {
+        let o = smokelab(
+            &[
+                "run",
+                "taylor-green",
+                flag,
+                value,
+                "--quiet",
+                "--out",
+                "bad",
+            ],
+            d,
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{flag} {value}: {err}");
+        assert!(err.contains(named), "{flag} {value}: {err}");
+    }
 }

@@ -252,6 +252,12 @@ pub trait Scenario: Clone + Default + Serialize + DeserializeOwned {
     fn exact(&self, _sim: &Simulation) -> Option<super::prescribed::Exact> {
         None
     }
+
+    /// The exact velocity a run's solver is measured against, where the
+    /// scenario knows one (the Taylor–Green vortex).
+    fn exact_velocity(&self) -> Option<super::taylor_green::TaylorGreen> {
+        None
+    }
 }
 
 /// Every key a scenario's configuration has (the solver's included).

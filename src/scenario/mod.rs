@@ -5,6 +5,7 @@ pub mod hot_cold;
 pub mod prescribed;
 pub mod slab_box;
 pub mod sphere_wall;
+pub mod taylor_green;
 
 use serde::{Deserialize, Serialize};
 
@@ -25,14 +26,18 @@ pub enum ScenarioKind {
     Deformation,
     /// Zalesak's slotted sphere in rigid rotation (prescribed velocity).
     Zalesak,
+    /// The Taylor–Green vortex decaying under the full Navier–Stokes step,
+    /// measured against its exact solution ([`taylor_green`]).
+    TaylorGreen,
 }
 
 impl ScenarioKind {
     /// Every scenario.
-    pub const ALL: [ScenarioKind; 4] = [
+    pub const ALL: [ScenarioKind; 5] = [
         ScenarioKind::HotCold,
         ScenarioKind::SlabBox,
         ScenarioKind::Deformation,
         ScenarioKind::Zalesak,
+        ScenarioKind::TaylorGreen,
     ];
 }
