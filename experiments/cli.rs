@@ -204,7 +204,7 @@ pub struct SolverFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub metrics_every: Option<usize>,
-    /// Pressure solve's transforms: f32 (default; `max|D u| Δx / max|u|` ≤ 1e-5, P-1's pressure_precision.csv) or f64 (round-off of the faces; the convergence suite's).
+    /// Pressure solve's transforms: f32 (default; `max|D u| Δx / max|u|` ≤ 1e-5 up to 256³, growing about as ε·N; P-1's pressure_precision.csv) or f64 (round-off of the faces; above 256³, and the convergence suite's).
     #[arg(long, value_enum)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pressure_precision: Option<PressurePrecision>,

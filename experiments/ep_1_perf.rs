@@ -35,7 +35,7 @@
 //!   widths interleaved round by round; and one step of each from one
 //!   state, the fields' bits asserted equal across widths (the experiment
 //!   fails otherwise). `widths.csv`, the second table of `table.md`;
-//! - **pressure precision** (issue 38, item 4): at each size, periodic
+//! - **pressure precision**: at each size, periodic
 //!   and closed, the hot/cold `u*` of one step after the warm-up projected
 //!   by the f32 and by the f64 solve, `max|D u| Δx / max|u_a|` before and
 //!   after each; `pressure_precision.csv`, the third table of `table.md`;
@@ -558,7 +558,7 @@ struct PrecisionRow {
     after: f64,
 }
 
-/// Item 4 of issue 38: hot/cold at `res` in a box of `kind`, `warm`
+/// The projection's round-off: hot/cold at `res` in a box of `kind`, `warm`
 /// steps, then one step's advection and force — `u*`, as the projection
 /// of a step sees it — projected once by the f32 and once by the f64
 /// solve; `max|D u| Δx / max|u_a|` before and after each.

@@ -80,9 +80,12 @@
 //! ([`PressureSolver::with_precision`]; [`PressureSolver::new`] is f64, a
 //! simulation's default f32). In f32 the rounding of `D u*` to f32 and the
 //! transforms' O(ε log N) survive the solve, leaving `max|D u| Δx / max|u|`
-//! ≈ 1e-6 (random faces, `tests/mac_projection.rs`; a hot/cold step 32³ …
-//! 256³, periodic and closed: experiment P-1's `pressure_precision.csv`),
-//! below issue 38's 1e-5; in f64 what remains is the final rounding of the
+//! ≈ 1e-6 on random faces (`tests/mac_projection.rs`). On a hot/cold step
+//! it grows about as `ε N` — the pressure's smooth part, `O(max|u| L)`, is
+//! rounded to `ε` of itself and `L` amplifies that by `1/Δx²` — from 4e-7
+//! at 32³ to 7.8e-6 at 256³, periodic and closed alike (experiment P-1's
+//! `pressure_precision.csv`): below 1e-5 up to 256³, not beyond about
+//! 320³, where f64 is the choice. In f64 what remains is the final rounding of the
 //! faces, ≈ 1e-7. f64 costs twice the transform memory traffic. With
 //! obstacles the same transforms precondition the f64 conjugate gradients.
 //!
@@ -127,8 +130,9 @@ use periodic_fft::PeriodicFft;
 #[serde(rename_all = "lowercase")]
 pub enum PressurePrecision {
     /// Transforms in f32: half the memory traffic; after the projection
-    /// `max|D u| Δx / max|u|` stays below 1e-5 (measured by experiment P-1,
-    /// `pressure_precision.csv`, module documentation "Precision").
+    /// `max|D u| Δx / max|u|` stays below 1e-5 up to 256³ (it grows about
+    /// as `ε N`; experiment P-1's `pressure_precision.csv`, module
+    /// documentation "Precision").
     #[default]
     F32,
     /// Transforms in f64: `max|D u|` at the rounding of the faces.

@@ -207,7 +207,7 @@ fn projection_leaves_roundoff_divergence() {
 /// f32 transforms (the solver's default in a simulation): the rounding of
 /// `D u*` to f32 (≈ ε max|D u*|, with `max|D u*| ≈ 6 max|u|/Δx` for random
 /// faces) and the f32 transforms' O(ε log N) survive the solve, so the
-/// bound is `1e-5 max|u|/Δx` (≈ 170 ε), issue 38's criterion for making
+/// bound is `1e-5 max|u|/Δx` (≈ 170 ε), the criterion for making
 /// f32 the default; measured 4.2e-7 – 1.24e-6 here (64³ the largest),
 /// against 6.6e-8 – 9.3e-8 in f64. A leak (a wrong eigenvalue, a missing face term)
 /// gives O(1e-2).

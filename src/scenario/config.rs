@@ -75,8 +75,9 @@ pub struct SolverConfig {
     /// interpolant's divergence) every this many steps (≥ 1).
     pub metrics_every: usize,
     /// Arithmetic of the pressure solve's transforms: `f32` (default; after
-    /// the projection `max|D u| Δx / max|u|` ≤ 1e-5, experiment P-1's
-    /// `pressure_precision.csv`) or `f64` (`max|D u|` at the faces' rounding).
+    /// the projection `max|D u| Δx / max|u|` ≤ 1e-5 up to 256³, growing
+    /// about as `ε N`; experiment P-1's `pressure_precision.csv`) or `f64`
+    /// (`max|D u|` at the faces' rounding; for finer grids).
     pub pressure_precision: PressurePrecision,
     /// Run even if the memory estimate exceeds the available memory.
     pub force: bool,
