@@ -21,6 +21,7 @@ use smokelab::density::DensityMode;
 use smokelab::error::InputError;
 use smokelab::grid::BoxKind;
 use smokelab::io;
+use smokelab::pressure::PressurePrecision;
 use smokelab::render::camera::parse_image_size;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
@@ -219,6 +220,10 @@ pub struct SolverFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub metrics_every: Option<usize>,
+    /// Pressure solve's transforms: f32 (default; `max|D u| Δx / max|u|` ≤ 1e-5 up to 256³, growing about as ε·N; P-1's pressure_precision.csv) or f64 (round-off of the faces; above 256³, and the convergence suite's).
+    #[arg(long, value_enum)]
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pressure_precision: Option<PressurePrecision>,
     /// Run even if the memory estimate exceeds the available memory.
     #[arg(long)]
     #[serde(skip_serializing_if = "is_false")]

@@ -35,6 +35,10 @@
 //!   widths interleaved round by round; and one step of each from one
 //!   state, the fields' bits asserted equal across widths (the experiment
 //!   fails otherwise). `widths.csv`, the second table of `table.md`;
+//! - **pressure precision**: at each size, periodic
+//!   and closed, the hot/cold `u*` of one step after the warm-up projected
+//!   by the f32 and by the f64 solve, `max|D u| Δx / max|u_a|` before and
+//!   after each; `pressure_precision.csv`, the third table of `table.md`;
 //! - **peers** (`--peers PYTHON`): `taichi_advect.py N 2 f32` and
 //!   `fft_py.py N 2` from `../shared/peers/` (or `$SMOKELAB_PEERS_DIR`) at
 //!   the same sizes in the same run, each run once right before smokelab's
@@ -64,7 +68,7 @@
 //! `--smoke` 16³ and 32³, 1 and 3; the widths add the scalar kernel's
 //! steps, about half a minute at 256³). Writes `results/perf/`: `data.csv`
 //! (one row per resolution, the default kernel's), `widths.csv` (one row
-//! per resolution and kernel), `time.png` (step time against cells, log-log,
+//! per resolution and kernel), `pressure_precision.csv`, `time.png` (step time against cells, log-log,
 //! with the fit, the floor and the peer), `threads.png` (speed-up),
 //! `stages.png` (each stage's share of the step), `table.md` (the table
 //! for the README and the paper), `manifest.json`.
@@ -85,8 +89,9 @@ use smokelab::error::InputError;
 use smokelab::fit::linear_fit;
 use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::io::{self, manifest::Manifest};
+use smokelab::metrics::velocity_stats;
 use smokelab::pressure::periodic_fft::PeriodicFft;
-use smokelab::pressure::PressureSolver;
+use smokelab::pressure::{PressurePrecision, PressureSolver};
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::{Scenario, SolverConfig};
 use smokelab::simd::Isa;
@@ -156,8 +161,15 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
         bar.inc(1);
     }
     bar.finish_and_clear();
+    let mut precision = vec![];
+    for &res in &sizes {
+        for kind in BoxKind::ALL {
+            precision.extend(pressure_precision(res, warm, kind, &pools[1])?);
+        }
+    }
     let load_after = loadavg();
     io::create_output_dir(&ctx.out)?;
+    crate::table::write_rows(&ctx.out.join("pressure_precision.csv"), &precision)?;
     let fit = linear_fit(
         &rows
             .iter()
@@ -170,6 +182,7 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
     plot(&ctx.out, &rows, peer_rows.as_deref(), fit.map(|f| f.slope))?;
     let mut md = table(&rows, peer_rows.as_deref(), fit.map(|f| f.slope));
     md.push_str(&widths_table(&widths));
+    md.push_str(&precision_table(&precision));
     io::write_atomic(&ctx.out.join("table.md"), |w| {
         Ok(std::io::Write::write_all(w, md.as_bytes())?)
     })?;
@@ -190,6 +203,7 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
         },
         "timed": "Simulation::step only (advect, density, force, project); the run driver's metrics (metrics_ms: run::StepMeasures, fine_metrics_ms: run::FineProbes::measure) are timed apart on the same state, outputs not at all; setup_s (sources' cell averages, plans) is timed apart",
         "default_metrics_every": SolverConfig::default().metrics_every,
+        "pressure_precision": "hot/cold after the warm-up steps and one step's advection and force (u*), periodic and closed, projected by the f32 and the f64 solve: max|D u| Δx / max|u_a| (metrics::velocity_stats); pressure_precision.csv, the third table of table.md",
         "floor": "min(f32 realfft+rustfft pair, the solver's f64 pair) + five f32 array copies (the fused sweep's 5 fields read and written)",
         "peers": match (&peers, &peer_rows) {
             (Some(p), Some(r)) => serde_json::json!({
@@ -527,6 +541,89 @@ fn widths_table(rows: &[WidthRow]) -> String {
             s.push_str(&format!(" {:.2} |", r.peer_over_step_euler));
         }
         s.push('\n');
+    }
+    s
+}
+
+/// One row of `pressure_precision.csv`.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+struct PrecisionRow {
+    res: usize,
+    #[serde(rename = "box")]
+    box_kind: BoxKind,
+    precision: PressurePrecision,
+    /// `max|D u*| Δx / max|u*|` before the projection.
+    before: f64,
+    /// `max|D u| Δx / max|u|` after it.
+    after: f64,
+}
+
+/// The projection's round-off: hot/cold at `res` in a box of `kind`, `warm`
+/// steps, then one step's advection and force — `u*`, as the projection
+/// of a step sees it — projected once by the f32 and once by the f64
+/// solve; `max|D u| Δx / max|u_a|` before and after each.
+fn pressure_precision(
+    res: usize,
+    warm: usize,
+    kind: BoxKind,
+    pool: &rayon::ThreadPool,
+) -> Result<Vec<PrecisionRow>> {
+    let mut cfg = config(res);
+    cfg.solver.box_kind = kind;
+    let mut sim = cfg.build()?;
+    pool.install(|| -> Result<()> {
+        (0..warm).for_each(|_| sim.step());
+        sim.advect()?;
+        sim.evaluate_densities();
+        sim.add_buoyancy();
+        Ok(())
+    })?;
+    let dx = sim.domain().cell as f64;
+    let ratio = |u: &smokelab::grid::FaceGrid| {
+        let s = pool.install(|| velocity_stats(u));
+        s.divergence.max as f64 * dx / s.mirror.max_norm as f64
+    };
+    let before = ratio(&sim.velocity);
+    Ok(PressurePrecision::ALL
+        .map(|precision| {
+            let mut u = sim.velocity.clone();
+            let mut solver = PressureSolver::with_precision(*sim.domain(), kind, precision);
+            pool.install(|| solver.project(&mut u));
+            PrecisionRow {
+                res,
+                box_kind: kind,
+                precision,
+                before,
+                after: ratio(&u),
+            }
+        })
+        .to_vec())
+}
+
+/// The third table of `table.md`: the projection's round-off per precision.
+fn precision_table(rows: &[PrecisionRow]) -> String {
+    let mut s = String::from(
+        "
+The pressure solve's round-off: `max|D u| Δx / max|u|` after projecting one hot/cold step's `u*`:
+
+\
+         | res | box | before | f32 | f64 |\n|---|---|---|---|---|\n",
+    );
+    for r in rows
+        .iter()
+        .filter(|r| r.precision == PressurePrecision::F32)
+    {
+        let f64_row = rows.iter().find(|q| {
+            q.res == r.res && q.box_kind == r.box_kind && q.precision == PressurePrecision::F64
+        });
+        s.push_str(&format!(
+            "| {}³ | {} | {:.1e} | {:.1e} | {:.1e} |\n",
+            r.res,
+            r.box_kind,
+            r.before,
+            r.after,
+            f64_row.map_or(f64::NAN, |q| q.after)
+        ));
     }
     s
 }

@@ -75,11 +75,19 @@
 //! # Precision
 //!
 //! Velocities and the published [`PressureSolver::pressure`] are f32; the
-//! divergence, the transforms and the gradient are computed in f64 and the
-//! faces rounded once. In f32 the rounding of `D u*` alone (≈ 13 ε max|u|/Δx
-//! for a random field) survives the solve, leaving `max|D u| ≈ 3e-6
-//! max|u|/Δx`; in f64 what remains is the final rounding of the faces,
-//! `≈ 2e-7 max|u|/Δx`. The price is twice the transform memory traffic.
+//! divergence and the gradient are computed in f64 and the faces rounded
+//! once. The transforms run in the [`PressurePrecision`] asked for
+//! ([`PressureSolver::with_precision`]; [`PressureSolver::new`] is f64, a
+//! simulation's default f32). In f32 the rounding of `D u*` to f32 and the
+//! transforms' O(ε log N) survive the solve, leaving `max|D u| Δx / max|u|`
+//! ≈ 1e-6 on random faces (`tests/mac_projection.rs`). On a hot/cold step
+//! it grows about as `ε N` — the pressure's smooth part, `O(max|u| L)`, is
+//! rounded to `ε` of itself and `L` amplifies that by `1/Δx²` — from 4e-7
+//! at 32³ to 7.8e-6 at 256³, periodic and closed alike (experiment P-1's
+//! `pressure_precision.csv`): below 1e-5 up to 256³, not beyond about
+//! 320³, where f64 is the choice. In f64 what remains is the final rounding of the
+//! faces, ≈ 1e-7. f64 costs twice the transform memory traffic. With
+//! obstacles the same transforms precondition the f64 conjugate gradients.
 //!
 //! # Performance
 //!
@@ -88,17 +96,22 @@
 //! z-slab per task; z lines of one x-frequency per task, with the spectral
 //! multiply fused between the forward and inverse z transforms; then the y
 //! and x inverses of a few z-slabs per task. The periodic box's pair is
-//! [`periodic_fft::PeriodicFft`] in f64 (the same type in f32 is the FFT
-//! floor of experiment P-1 and, forward only, the metrics' spectra). In a periodic box the projection has no pass
+//! [`periodic_fft::PeriodicFft`] in the solver's precision (in f32 it is
+//! also the FFT floor of experiment P-1 and, forward only, the metrics'
+//! spectra). In a periodic box the projection has no pass
 //! of its own: each task of the first pass computes the divergence of its
 //! slab before transforming it, and each task of the last subtracts the
 //! gradient of the slabs of `p` it has just made.
 
 use std::f64::consts::PI;
+use std::fmt;
+use std::ops::MulAssign;
 use std::sync::Arc;
 
 use rayon::prelude::*;
-use rustdct::{DctPlanner, Dst1, TransformType2And3};
+use realfft::num_traits::NumAssign;
+use rustdct::{DctNum, DctPlanner, Dst1, TransformType2And3};
+use serde::{Deserialize, Serialize};
 
 use crate::domain::Domain;
 use crate::error::InputError;
@@ -109,6 +122,46 @@ pub mod obstacles;
 pub mod periodic_fft;
 
 use periodic_fft::PeriodicFft;
+
+/// The arithmetic of the pressure solve's transforms (the divergence, the
+/// gradient and the published pressure are f64 either way).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum PressurePrecision {
+    /// Transforms in f32: half the memory traffic; after the projection
+    /// `max|D u| Δx / max|u|` stays below 1e-5 up to 256³ (it grows about
+    /// as `ε N`; experiment P-1's `pressure_precision.csv`, module
+    /// documentation "Precision").
+    #[default]
+    F32,
+    /// Transforms in f64: `max|D u|` at the rounding of the faces.
+    F64,
+}
+
+impl PressurePrecision {
+    /// Every precision, in a fixed order (for tests and sweeps).
+    pub const ALL: [PressurePrecision; 2] = [PressurePrecision::F32, PressurePrecision::F64];
+
+    /// Lower-case name, as serialised.
+    pub fn name(self) -> &'static str {
+        match self {
+            PressurePrecision::F32 => "f32",
+            PressurePrecision::F64 => "f64",
+        }
+    }
+}
+
+impl fmt::Display for PressurePrecision {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// A precision the transforms can run in: f32 or f64.
+trait Float: Real + DctNum + NumAssign {}
+
+impl<T: Real + DctNum + NumAssign> Float for T {}
 
 /// What to multiply each mode by between the forward and inverse transform.
 #[derive(Clone, Copy, Debug)]
@@ -133,8 +186,8 @@ fn eigenvalue(m: usize, period: usize, dx: f32) -> f64 {
 /// factors `exp(λ_a ν Δt)` (heat step: the product of the three is
 /// `exp(λ ν Δt)`).
 #[inline]
-fn apply_gain<T: std::ops::MulAssign<f64>>(
-    col: &mut [T],
+fn apply_gain<T: Float, C: MulAssign<T>>(
+    col: &mut [C],
     i: usize,
     nz: usize,
     filter: Filter,
@@ -148,13 +201,13 @@ fn apply_gain<T: std::ops::MulAssign<f64>>(
                 for (c, &lz) in line.iter_mut().zip(tz) {
                     let l = lxy + lz;
                     // Every eigenvalue is < 0 except the zero mode's, exactly 0.
-                    *c *= if l < 0.0 { 1.0 / l } else { 0.0 };
+                    *c *= <T as Real>::from_f64(if l < 0.0 { 1.0 / l } else { 0.0 });
                 }
             }
             Filter::Heat { .. } => {
                 let hxy = tx[i] * ty[j];
                 for (c, &hz) in line.iter_mut().zip(tz) {
-                    *c *= hxy * hz;
+                    *c *= <T as Real>::from_f64(hxy * hz);
                 }
             }
         }
@@ -184,18 +237,18 @@ fn gain_tables(eig: &[Vec<f64>; 3], filter: Filter, dx: f32) -> [Vec<f64>; 3] {
 /// slabs reads whole cache lines of the columns.
 const SLAB_BLOCK: usize = 8;
 
-/// Periodic box: the real FFT pair ([`PeriodicFft`]) in f64 and its
-/// eigenvalues.
+/// Periodic box: the real FFT pair ([`PeriodicFft`]) in precision `T` and
+/// its eigenvalues.
 #[derive(Clone)]
-struct PeriodicPlan {
-    fft: PeriodicFft<f64>,
+struct PeriodicPlan<T: Float> {
+    fft: PeriodicFft<T>,
     /// `λ_a(m)` per axis and bin.
     eig: [Vec<f64>; 3],
     /// Cell size Δx.
     dx: f32,
 }
 
-impl PeriodicPlan {
+impl<T: Float> PeriodicPlan<T> {
     fn new(domain: &Domain) -> Self {
         let [nx, ny, nz] = domain.dims;
         let bins = [nx / 2 + 1, ny, nz];
@@ -213,7 +266,7 @@ impl PeriodicPlan {
 
     /// Pass 1: `src` (`[z][y][x]`) transformed along x and y.
     fn forward<S: Real>(&mut self, src: &[S]) {
-        self.fft.forward(src, S::to_f64);
+        self.fft.forward(src, |v| <T as Real>::from_f64(v.to_f64()));
     }
 
     /// Passes 2 and 3: z transform, gain, inverse z; then inverse y and x
@@ -223,15 +276,15 @@ impl PeriodicPlan {
         let tables = gain_tables(&self.eig, filter, self.dx);
         let scale = 1.0 / (nx * ny * nz) as f64;
         self.fft.inverse(
-            |i, col| apply_gain(col, i, nz, filter, &tables),
+            |i, col| apply_gain::<T, _>(col, i, nz, filter, &tables),
             dst,
-            |r| S::from_f64(r * scale),
+            |r| S::from_f64(r.to_f64() * scale),
         );
     }
 
     /// [`PressureSolver::project`] in a periodic box, in the transform's
-    /// passes: pass 1 transforms `D u*` (f64, [`FaceGrid::divergence_slab`])
-    /// as each task makes its slab; pass 3 hands each slab of `p` (f64, into
+    /// passes: pass 1 transforms `D u*` (made in f64, [`FaceGrid::divergence_slab`],
+    /// rounded to `T`) as each task makes its slab; pass 3 hands each slab of `p` (f64, into
     /// `p`) to [`subtract_gradient_slab`] while it is in cache — all of `u`
     /// and `v`, and `w` where the slab below is in the same block. The first
     /// slab of each block takes its `w` afterwards, from `p`.
@@ -250,13 +303,13 @@ impl PeriodicPlan {
             .zip(vs.par_chunks_mut(block))
             .zip(ws.par_chunks_mut(block));
         self.fft.inverse_blocks(
-            |i, col| apply_gain(col, i, nz, Filter::InverseLaplacian, &tables),
+            |i, col| apply_gain::<T, _>(col, i, nz, Filter::InverseLaplacian, &tables),
             blocks,
             |(((p, u), v), w), d, real| {
                 let (below, p) = p.split_at_mut(d * slab);
                 let p = &mut p[..slab];
                 for (o, &r) in p.iter_mut().zip(real) {
-                    *o = r * scale;
+                    *o = r.to_f64() * scale;
                 }
                 let below = d.checked_sub(1).map(|_| &below[(d - 1) * slab..]);
                 let [u, v, w] = [&mut **u, &mut **v, &mut **w].map(|c| &mut c[d * slab..][..slab]);
@@ -308,14 +361,14 @@ fn subtract_gradient_slab(
 
 /// A real-to-real transform along one axis.
 #[derive(Clone)]
-enum R2r {
+enum R2r<T: Float> {
     /// DCT-II forward, DCT-III back: cell-centred samples, mirror ghosts.
-    Cosine(Arc<dyn TransformType2And3<f64>>),
+    Cosine(Arc<dyn TransformType2And3<T>>),
     /// DST-I both ways: the interior faces of a lattice with zero walls.
-    Sine(Arc<dyn Dst1<f64>>),
+    Sine(Arc<dyn Dst1<T>>),
 }
 
-impl R2r {
+impl<T: Float> R2r<T> {
     fn scratch_len(&self) -> usize {
         match self {
             R2r::Cosine(t) => t.get_scratch_len(),
@@ -324,7 +377,7 @@ impl R2r {
     }
 
     /// Forward transform of every length-`n` line of `lines`.
-    fn forward(&self, lines: &mut [f64], n: usize, scratch: &mut [f64]) {
+    fn forward(&self, lines: &mut [T], n: usize, scratch: &mut [T]) {
         for l in lines.chunks_exact_mut(n) {
             match self {
                 R2r::Cosine(t) => t.process_dct2_with_scratch(l, scratch),
@@ -334,7 +387,7 @@ impl R2r {
     }
 
     /// Inverse (unnormalised) transform of every length-`n` line.
-    fn inverse(&self, lines: &mut [f64], n: usize, scratch: &mut [f64]) {
+    fn inverse(&self, lines: &mut [T], n: usize, scratch: &mut [T]) {
         for l in lines.chunks_exact_mut(n) {
             match self {
                 R2r::Cosine(t) => t.process_dct3_with_scratch(l, scratch),
@@ -355,14 +408,14 @@ impl R2r {
 
 /// One lattice of the closed box and its transforms.
 #[derive(Clone)]
-struct RealConfig {
+struct RealConfig<T: Float> {
     /// Array size `[mx, my, mz]`.
     lattice: [usize; 3],
     /// First transformed index per axis (1 past a wall face, else 0).
     offset: [usize; 3],
     /// Transform length per axis.
     len: [usize; 3],
-    axes: [R2r; 3],
+    axes: [R2r<T>; 3],
     /// `λ_a(m)` per axis and transform index.
     eig: [Vec<f64>; 3],
     /// Product of the per-axis normalisations.
@@ -371,20 +424,20 @@ struct RealConfig {
 
 /// Closed box: DCT-II/III (and DST-I for wall-normal face components).
 #[derive(Clone)]
-struct ClosedPlan {
+struct ClosedPlan<T: Float> {
     /// Index 0: cell centres (pressure); `1 + a`: face component `a`.
-    configs: [RealConfig; 4],
+    configs: [RealConfig<T>; 4],
     /// Cell size Δx.
     dx: f32,
     /// Layout `[z][x][y]` over the transform lengths.
-    slabs: Vec<f64>,
+    slabs: Vec<T>,
     /// Layout `[x][y][z]` over the transform lengths.
-    columns: Vec<f64>,
+    columns: Vec<T>,
 }
 
-impl ClosedPlan {
+impl<T: Float> ClosedPlan<T> {
     fn new(domain: &Domain) -> Self {
-        let mut planner = DctPlanner::<f64>::new();
+        let mut planner = DctPlanner::<T>::new();
         let configs = std::array::from_fn(|c| {
             let normal = c.checked_sub(1);
             let mut lattice = [0; 3];
@@ -417,8 +470,8 @@ impl ClosedPlan {
         Self {
             configs,
             dx: domain.cell,
-            slabs: vec![0.0f64; cells],
-            columns: vec![0.0f64; cells],
+            slabs: vec![T::zero(); cells],
+            columns: vec![T::zero(); cells],
         }
     }
 
@@ -437,11 +490,11 @@ impl ClosedPlan {
             .par_chunks_mut(lx * ly)
             .zip(src.par_chunks(mx * my))
             .for_each_init(
-                || (vec![0.0f64; lx], vec![0.0f64; scratch]),
+                || (vec![T::zero(); lx], vec![T::zero(); scratch]),
                 |(line, scratch), (slab, s)| {
                     for j in 0..ly {
                         for (l, &v) in line.iter_mut().zip(&s[(j + oy) * mx + ox..][..lx]) {
-                            *l = v.to_f64();
+                            *l = <T as Real>::from_f64(v.to_f64());
                         }
                         ax.forward(line, lx, scratch);
                         for (i, &v) in line.iter().enumerate() {
@@ -477,7 +530,7 @@ impl ClosedPlan {
                 .par_chunks_mut(ly * lz)
                 .enumerate()
                 .for_each_init(
-                    || vec![0.0f64; scratch],
+                    || vec![T::zero(); scratch],
                     |scratch, (i, col)| {
                         for k in 0..lz {
                             let src = &slabs[(k * lx + i) * ly..][..ly];
@@ -486,7 +539,7 @@ impl ClosedPlan {
                             }
                         }
                         az.forward(col, lz, scratch);
-                        apply_gain(col, i, lz, filter, &tables);
+                        apply_gain::<T, _>(col, i, lz, filter, &tables);
                         az.inverse(col, lz, scratch);
                     },
                 );
@@ -502,7 +555,7 @@ impl ClosedPlan {
             .zip(mid.par_chunks_mut(SLAB_BLOCK * mx * my))
             .enumerate()
             .for_each_init(
-                || (vec![0.0f64; lx], vec![0.0f64; scratch]),
+                || (vec![T::zero(); lx], vec![T::zero(); scratch]),
                 |(line, scratch), (block, (slabs, out))| {
                     let k0 = block * SLAB_BLOCK;
                     let depth = slabs.len() / (lx * ly);
@@ -527,7 +580,7 @@ impl ClosedPlan {
                             row[..ox].fill(S::from_f64(0.0));
                             row[ox + lx..].fill(S::from_f64(0.0));
                             for (r, &v) in row[ox..ox + lx].iter_mut().zip(line.iter()) {
-                                *r = S::from_f64(v * norm);
+                                *r = S::from_f64(v.to_f64() * norm);
                             }
                         }
                     }
@@ -536,14 +589,21 @@ impl ClosedPlan {
     }
 }
 
-/// The transforms of one box kind.
+/// The transforms of one box kind, in precision `T`.
 #[derive(Clone)]
-enum Engine {
-    Periodic(Box<PeriodicPlan>),
-    Closed(Box<ClosedPlan>),
+enum Engine<T: Float> {
+    Periodic(Box<PeriodicPlan<T>>),
+    Closed(Box<ClosedPlan<T>>),
 }
 
-impl Engine {
+impl<T: Float> Engine<T> {
+    fn new(domain: &Domain, kind: BoxKind) -> Self {
+        match kind {
+            BoxKind::Periodic => Engine::Periodic(Box::new(PeriodicPlan::new(domain))),
+            BoxKind::Closed => Engine::Closed(Box::new(ClosedPlan::new(domain))),
+        }
+    }
+
     /// Forward-transform `src` on lattice `config` (0: cells, `1 + a`: face
     /// component `a`; the periodic lattices all have the cell shape).
     fn forward<S: Real>(&mut self, config: usize, src: &[S]) {
@@ -560,6 +620,52 @@ impl Engine {
             Engine::Closed(c) => c.finish(config, filter, dst),
         }
     }
+
+    /// [`PressureSolver::project`]: `p` receives the pressure, `rhs` is the
+    /// closed box's scratch for `D u*`.
+    fn project(&mut self, u: &mut FaceGrid, p: &mut [f64], rhs: &mut [f64]) {
+        match self {
+            Engine::Periodic(plan) => plan.project(u, p),
+            Engine::Closed(_) => {
+                u.zero_walls();
+                u.divergence_f64(rhs);
+                self.forward(0, rhs);
+                self.finish(0, Filter::InverseLaplacian, p);
+                u.subtract_gradient_f64(p, 1.0);
+            }
+        }
+    }
+
+    /// [`PressureSolver::solve_poisson`] on any cell data.
+    fn solve_poisson<S: Real>(&mut self, f: &[S], p: &mut [S]) {
+        self.forward(0, f);
+        self.finish(0, Filter::InverseLaplacian, p);
+    }
+
+    /// [`PressureSolver::diffuse`] after its checks, `nu_dt > 0`.
+    fn diffuse(&mut self, u: &mut FaceGrid, nu_dt: f64) {
+        for a in 0..3 {
+            self.forward(1 + a, u.slice(a));
+            self.finish(1 + a, Filter::Heat { nu_dt }, u.slice_mut(a));
+        }
+    }
+}
+
+/// The engine in the precision asked for.
+#[derive(Clone)]
+enum Engines {
+    F32(Engine<f32>),
+    F64(Engine<f64>),
+}
+
+/// `engines.f(args…)` on whichever precision `engines` holds.
+macro_rules! with_engine {
+    ($engines:expr, $e:ident => $body:expr) => {
+        match $engines {
+            Engines::F32($e) => $body,
+            Engines::F64($e) => $body,
+        }
+    };
 }
 
 /// Exact MAC pressure projection and viscosity for one domain and box kind.
@@ -577,15 +683,22 @@ pub struct PressureSolver {
     rhs: Vec<f64>,
     /// `p` of the last projection (zero mean), f64.
     p64: Vec<f64>,
-    engine: Engine,
+    engine: Engines,
 }
 
 impl PressureSolver {
-    /// Plan the transforms and allocate the buffers for `domain` and `kind`.
+    /// Plan the transforms in f64 and allocate the buffers for `domain` and
+    /// `kind` ([`Self::with_precision`] for f32).
     pub fn new(domain: Domain, kind: BoxKind) -> Self {
-        let engine = match kind {
-            BoxKind::Periodic => Engine::Periodic(Box::new(PeriodicPlan::new(&domain))),
-            BoxKind::Closed => Engine::Closed(Box::new(ClosedPlan::new(&domain))),
+        Self::with_precision(domain, kind, PressurePrecision::F64)
+    }
+
+    /// Plan the transforms in `precision` and allocate the buffers for
+    /// `domain` and `kind`.
+    pub fn with_precision(domain: Domain, kind: BoxKind, precision: PressurePrecision) -> Self {
+        let engine = match precision {
+            PressurePrecision::F32 => Engines::F32(Engine::new(&domain, kind)),
+            PressurePrecision::F64 => Engines::F64(Engine::new(&domain, kind)),
         };
         let rhs = match kind {
             BoxKind::Periodic => vec![],
@@ -608,6 +721,14 @@ impl PressureSolver {
     /// The box kind planned for.
     pub fn kind(&self) -> BoxKind {
         self.kind
+    }
+
+    /// The precision of the transforms.
+    pub fn precision(&self) -> PressurePrecision {
+        match self.engine {
+            Engines::F32(_) => PressurePrecision::F32,
+            Engines::F64(_) => PressurePrecision::F64,
+        }
     }
 
     /// The pressure `p` of the last [`PressureSolver::project`] (zeros before
@@ -637,17 +758,8 @@ impl PressureSolver {
     pub fn project(&mut self, u: &mut FaceGrid) {
         assert_eq!(u.domain(), &self.domain, "pressure solver: another domain");
         assert_eq!(u.kind(), self.kind, "pressure solver: another box kind");
-        match &mut self.engine {
-            Engine::Periodic(plan) => plan.project(u, &mut self.p64),
-            Engine::Closed(_) => {
-                u.zero_walls();
-                u.divergence_f64(&mut self.rhs);
-                self.engine.forward(0, &self.rhs);
-                self.engine
-                    .finish(0, Filter::InverseLaplacian, &mut self.p64);
-                u.subtract_gradient_f64(&self.p64, 1.0);
-            }
-        }
+        let (p, rhs) = (&mut self.p64, &mut self.rhs);
+        with_engine!(&mut self.engine, e => e.project(u, p, rhs));
     }
 
     /// Solve `L p = f` for cell-centred `f` with the zero mode pinned
@@ -659,13 +771,13 @@ impl PressureSolver {
     pub fn solve_poisson(&mut self, f: &ScalarGrid, p: &mut ScalarGrid) {
         assert_eq!(f.domain(), &self.domain, "solve_poisson: another domain");
         assert_eq!(p.domain(), &self.domain, "solve_poisson: another domain");
-        self.engine.forward(0, f.as_slice());
-        self.engine
-            .finish(0, Filter::InverseLaplacian, p.as_slice_mut());
+        let (f, p) = (f.as_slice(), p.as_slice_mut());
+        with_engine!(&mut self.engine, e => e.solve_poisson(f, p));
     }
 
     /// [`Self::solve_poisson`] on f64 `[z][y][x]` cell arrays (the cut-cell
-    /// preconditioner).
+    /// preconditioner; with f32 transforms, an f32 preconditioner of the
+    /// f64 conjugate gradients).
     ///
     /// # Panics
     /// If an array does not have one value per cell.
@@ -680,8 +792,7 @@ impl PressureSolver {
             self.domain.len(),
             "solve_poisson: one value per cell"
         );
-        self.engine.forward(0, f);
-        self.engine.finish(0, Filter::InverseLaplacian, p);
+        with_engine!(&mut self.engine, e => e.solve_poisson(f, p));
     }
 
     /// Exact viscous step: each component `û_a ← û_a exp(λ_a ν Δt)` on its
@@ -706,11 +817,7 @@ impl PressureSolver {
         if nu_dt == 0.0 {
             return Ok(());
         }
-        for a in 0..3 {
-            self.engine.forward(1 + a, u.slice(a));
-            self.engine
-                .finish(1 + a, Filter::Heat { nu_dt }, u.slice_mut(a));
-        }
+        with_engine!(&mut self.engine, e => e.diffuse(u, nu_dt));
         Ok(())
     }
 }

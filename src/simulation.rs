@@ -40,7 +40,7 @@ use crate::error::InputError;
 use crate::field::{Scalar, VectorField};
 use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
 use crate::pressure::obstacles::{CgReport, ObstacleProjection, TOLERANCE};
-use crate::pressure::PressureSolver;
+use crate::pressure::{PressurePrecision, PressureSolver};
 use crate::timing::{timed, StageTimes};
 
 /// Sub-cells per axis of the quadrature of a gas's source: the gridded
@@ -214,7 +214,11 @@ impl Simulation {
             boundary: None,
             velocity_scratch: FaceGrid::zeros(domain, BoxKind::Periodic),
             advector: Advector::new(domain, &AdvectionOptions::default(), params.backtrace),
-            pressure: PressureSolver::new(domain, BoxKind::Periodic),
+            pressure: PressureSolver::with_precision(
+                domain,
+                BoxKind::Periodic,
+                PressurePrecision::default(),
+            ),
             obstacle_projection: None,
             prescribed: None,
         }
@@ -257,13 +261,21 @@ impl Simulation {
         }
         self.velocity = FaceGrid::zeros(d, kind);
         self.velocity_scratch = FaceGrid::zeros(d, kind);
-        self.pressure = PressureSolver::new(d, kind);
+        self.pressure = PressureSolver::with_precision(d, kind, self.pressure.precision());
         for gas in &mut self.gases {
             match &mut gas.model {
                 DensityModel::Gridded(g) => g.set_wrap(kind.wrap()),
                 _ => assert_eq!(kind, BoxKind::Periodic, "closed box: {} gas", gas.name),
             }
         }
+        self
+    }
+
+    /// The same simulation with its pressure solve's transforms in
+    /// `precision` (f32 by default; [`PressurePrecision`]).
+    pub fn with_pressure_precision(mut self, precision: PressurePrecision) -> Self {
+        let d = *self.domain();
+        self.pressure = PressureSolver::with_precision(d, self.pressure.kind(), precision);
         self
     }
 

@@ -45,7 +45,7 @@ use smokelab::domain::Domain;
 use smokelab::field::algebra::{self as fa, Matrix};
 use smokelab::field::{ops, Scalar, Vector, VectorField};
 use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid, Wrap};
-use smokelab::pressure::PressureSolver;
+use smokelab::pressure::{PressurePrecision, PressureSolver};
 use smokelab::simulation::SOURCE_REFINE;
 
 /// A native function's failure, shown with the script's position.
@@ -125,13 +125,18 @@ pub struct Region {
 }
 
 impl Region {
-    /// A region of `kind` over `domain`, tracing with RK2 (the run's default).
+    /// A region of `kind` over `domain`, tracing with RK2 and solving the
+    /// pressure in f32 (the run's defaults).
     pub fn new(domain: Domain, kind: BoxKind) -> Self {
         Self {
             domain,
             kind,
             backtrace: Backtrace::default(),
-            solver: Rc::new(RefCell::new(PressureSolver::new(domain, kind))),
+            solver: Rc::new(RefCell::new(PressureSolver::with_precision(
+                domain,
+                kind,
+                PressurePrecision::default(),
+            ))),
         }
     }
 }

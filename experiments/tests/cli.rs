@@ -77,6 +77,14 @@ fn bad_inputs_exit_2_and_write_nothing() {
     );
     assert_rejected(&["run", "hot-cold", "--set", "res"], "KEY=VALUE");
     assert_rejected(
+        &["run", "hot-cold", "--pressure-precision", "f16"],
+        "f32, f64",
+    );
+    assert_rejected(
+        &["run", "hot-cold", "--set", "pressure_precision=half"],
+        "half",
+    );
+    assert_rejected(
         &["noise", "value", "--octaves", "16", "--lacunarity", "1000"],
         "frequency",
     );

@@ -1,6 +1,7 @@
 //! The periodic 3-D real FFT pair: a forward transform, a gain on the
-//! spectrum, the inverse — in f64 for the pressure solver's periodic box,
-//! in f32 for the performance floor of experiment P-1; forward only
+//! spectrum, the inverse — in the pressure solver's precision for its
+//! periodic box (f32 by default, f64 on request), in f32 for the
+//! performance floor of experiment P-1; forward only
 //! ([`PeriodicFft::spectra`]), in f32, for the metrics' spectral shares.
 //!
 //! On a `[z][y][x]` array of `N_x N_y N_z` reals, the unnormalised DFT

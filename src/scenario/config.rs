@@ -20,6 +20,7 @@ use crate::density::{CellSamples, DensityMode, DensityOptions, DEFAULT_SELMA_REM
 use crate::domain::{Domain, MIN_CELLS};
 use crate::error::{check_non_negative, check_positive, InputError};
 use crate::grid::BoxKind;
+use crate::pressure::PressurePrecision;
 use crate::simulation::{Gas, Simulation, StepParams};
 
 /// Parameters of the solver, shared by every scenario (flattened into each
@@ -73,6 +74,11 @@ pub struct SolverConfig {
     /// Compute the fine metrics (densities sampled at 2×, spectra, the
     /// interpolant's divergence) every this many steps (≥ 1).
     pub metrics_every: usize,
+    /// Arithmetic of the pressure solve's transforms: `f32` (default; after
+    /// the projection `max|D u| Δx / max|u|` ≤ 1e-5 up to 256³, growing
+    /// about as `ε N`; experiment P-1's `pressure_precision.csv`) or `f64`
+    /// (`max|D u|` at the faces' rounding; for finer grids).
+    pub pressure_precision: PressurePrecision,
     /// Run even if the memory estimate exceeds the available memory.
     pub force: bool,
     /// Random seed (recorded; the scenarios themselves are deterministic).
@@ -104,6 +110,7 @@ impl Default for SolverConfig {
             sample_res: None,
             save_every: 10,
             metrics_every: 10,
+            pressure_precision: PressurePrecision::F32,
             force: false,
             seed: 0,
             threads: None,

@@ -209,6 +209,7 @@ impl Scenario for HotColdConfig {
         check_sources(&gases, s)?;
         Ok(Simulation::new(domain, s.step_params(), gases)
             .with_advection(&s.advection_options())
+            .with_pressure_precision(s.pressure_precision)
             .with_box(s.box_kind))
     }
 }

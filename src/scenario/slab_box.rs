@@ -224,6 +224,7 @@ impl Scenario for SlabBoxConfig {
         let boundary = Boundary::new(domain, &self.obstacle(), self.boundary_options())?;
         Ok(Simulation::new(domain, s.step_params(), gases)
             .with_advection(&s.advection_options())
+            .with_pressure_precision(s.pressure_precision)
             .with_boundary(boundary))
     }
 }
