@@ -26,7 +26,7 @@
 //!   max, compact divergence, the gases' mirror) and the fine measures of
 //!   every `metrics_every` steps (`run::FineProbes::measure`: each gas at
 //!   2×, the top-octave share, the interpolant at 4096 points); the
-//!   per-step measures ÷ step (issue 16's target ≤ 5 % at 128³) and the
+//!   per-step measures ÷ step and the
 //!   run's metrics at the default cadence (`metrics_every` = 10) ÷ step;
 //! - **kernel widths**: the same rounds (RK2 and Euler steps on 2
 //!   threads, their stage times) once per instruction set this CPU has
@@ -101,7 +101,7 @@ use smokelab::simulation::Simulation;
 pub const EXPERIMENT: Experiment = Experiment {
     id: "P-1",
     folder: "perf",
-    reproduces: "issue 16 performance",
+    reproduces: "performance",
     title: "hot/cold step time 32³…256³: cells/s, fitted exponent, 1 vs 2 threads, stages, FFT floor (--peers PYTHON: Taichi + pyFFTW)",
     cost: "~1 min",
     run,

@@ -206,8 +206,60 @@ impl Domain {
     }
 }
 
+/// Wrap `x` into `[lo, lo + len)`.
+#[inline(always)]
+pub(crate) fn wrap1(x: f32, lo: f32, len: f32) -> f32 {
+    if x < lo {
+        let y = x + len;
+        if y >= lo {
+            y
+        } else {
+            lo + (x - lo).rem_euclid(len)
+        }
+    } else if x >= lo + len {
+        let y = x - len;
+        if y < lo + len {
+            y
+        } else {
+            lo + (x - lo).rem_euclid(len)
+        }
+    } else {
+        x
+    }
+}
+
+/// Continuous grid coordinates wrapped into one period (the periodic box
+/// convention every periodic sampler shares), `[−½, n − ½)` per
+/// axis (the periodic box); points inside are returned unchanged.
+#[inline(always)]
+pub(crate) fn wrap_grid(g: Vec3, dims: [usize; 3]) -> Vec3 {
+    Vec3::new(
+        wrap1(g.x, -0.5, dims[0] as f32),
+        wrap1(g.y, -0.5, dims[1] as f32),
+        wrap1(g.z, -0.5, dims[2] as f32),
+    )
+}
+
+/// A world point wrapped into the periodic box of `d`; points inside are
+/// returned unchanged.
+#[inline(always)]
+pub(crate) fn wrap_world(d: &Domain, p: Vec3) -> Vec3 {
+    let (o, s) = (d.origin, d.size());
+    Vec3::new(
+        wrap1(p.x, o.x, s.x),
+        wrap1(p.y, o.y, s.y),
+        wrap1(p.z, o.z, s.z),
+    )
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn grid_wrapping_folds_into_one_period() {
+        let g = super::wrap_grid(glam::Vec3::new(-0.6, 7.5, 3.0), [8, 8, 8]);
+        assert!((g - glam::Vec3::new(7.4, -0.5, 3.0)).length() < 1e-5);
+    }
+
     use super::*;
 
     #[test]

@@ -14,7 +14,7 @@
 //! `selma_vs_gridded` times gridded and SELMA steps of the hot/cold flow at
 //! 64³ and 128³ in one run (each simulation warmed 20 steps, then stepped
 //! in place, so SELMA's periodic re-anchorings are in its mean): the ratio
-//! of the two is issue 16's SELMA target (≤ 2).
+//! of the two is SELMA's target (≤ 2).
 //!
 //! Run: `cargo bench --bench density` (a few minutes; the warm-up of the
 //! 50³ gridless runs dominates); `cargo bench --bench density -- gridless/walk`

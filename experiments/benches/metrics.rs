@@ -1,5 +1,5 @@
-//! The measures taken after every step (`run::StepMeasures::take`, issue 16
-//! item 1: ≤ 5 % of a 128³ step) and each of its two parts —
+//! The measures taken after every step (`run::StepMeasures::take`; the
+//! target: ≤ 5 % of a 128³ step) and each of its two parts —
 //! `velocity_stats` and the gases' `mirror_error` — and the interpolant's
 //! divergence at the probe points, one of the fine measures taken every
 //! `metrics_every` steps, on the 128³ hot/cold state, in the global rayon

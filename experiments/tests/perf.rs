@@ -1,4 +1,4 @@
-//! Experiment P-1 (issue 16's performance table) at smoke size, and its
+//! Experiment P-1 (the performance table) at smoke size, and its
 //! `--peers` flag's input errors. Timings are not asserted (the machine is
 //! shared); what is asserted is what the run must produce whatever the load:
 //! every resolution measured, the 1- and 2-thread fields bitwise equal (the

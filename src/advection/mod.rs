@@ -31,7 +31,7 @@ pub use quick::{CflError, Limiter, Quick, QuickOptions};
 pub(crate) use semi_lagrangian::departure_points_wrapped;
 pub use semi_lagrangian::{
     advect_faces, advect_fused, advect_scalar, departure_point, departure_points,
-    interpolate_scalar, Departures,
+    interpolate_scalar, sample_face_grid_points, sample_face_points, Departures,
 };
 
 /// How the departure point `x − ∫u dt` of a semi-Lagrangian step is traced.

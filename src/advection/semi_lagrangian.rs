@@ -98,7 +98,7 @@ pub fn departure_points(vel: &FaceGrid, g: &mut [Vec3], dt_cells: f32, backtrace
 }
 
 /// [`departure_points`], each point then wrapped into the periodic box of
-/// `vel`'s domain as `crate::density::wrap_grid` does (in the kernel's
+/// `vel`'s domain as `crate::domain::wrap_grid` does (in the kernel's
 /// lanes too): one backward step of the gridless walk (eq 7.4's `B_k`).
 pub(crate) fn departure_points_wrapped(
     vel: &FaceGrid,
@@ -444,6 +444,50 @@ pub(crate) fn sample_points(
     out: &mut [f32],
 ) {
     kernel::sample(Isa::selected(), &[data], (cells, wrap), g, &mut [out]);
+}
+
+/// [`FaceGrid::sample`] at each of `points` into `out`, the same values
+/// to the bit: the kernel's lanes at a time, the points it leaves (more
+/// than a period outside, NaN) through [`FaceSampler::at`].
+///
+/// # Panics
+/// If `points` and `out` differ in length.
+pub fn sample_face_points(vel: &FaceGrid, points: &[Vec3], out: &mut [Vec3]) {
+    sample_faces_mapped(vel, points, out, |p| vel.domain().grid_coords(p));
+}
+
+/// [`sample_face_points`] at cell-centre grid coordinates (as
+/// [`FaceGrid::sample_grid_coords`]).
+///
+/// # Panics
+/// If `g` and `out` differ in length.
+pub fn sample_face_grid_points(vel: &FaceGrid, g: &[Vec3], out: &mut [Vec3]) {
+    sample_faces_mapped(vel, g, out, |g| g);
+}
+
+/// The face sampler at `g(p)` for each of `points`, batched as
+/// [`sample_face_points`] says.
+fn sample_faces_mapped(
+    vel: &FaceGrid,
+    points: &[Vec3],
+    out: &mut [Vec3],
+    g: impl Fn(Vec3) -> Vec3,
+) {
+    assert_eq!(
+        points.len(),
+        out.len(),
+        "sample_face_points: slice lengths differ"
+    );
+    let sampler = Vel::new(vel.sampler());
+    let isa = Isa::selected();
+    let mut at = [Vec3::ZERO; 256];
+    for (p, o) in points.chunks(at.len()).zip(out.chunks_mut(at.len())) {
+        let at = &mut at[..p.len()];
+        for (a, &p) in at.iter_mut().zip(p) {
+            *a = g(p);
+        }
+        kernel::velocities(isa, &sampler, at, o);
+    }
 }
 
 /// Eq 8.8 at the cell centres of `vel`'s grid for a backward map held as its

@@ -46,7 +46,6 @@
 //! cell and makes its advecting face velocities divergence-free around
 //! them with a small Poisson solve ([`crate::advection::quick`]).
 
-pub mod open_faces;
 pub mod wall_stop;
 pub mod level_set;
 
@@ -56,12 +55,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::domain::Domain;
 use crate::error::InputError;
+pub use crate::grid::OpenFaces;
 use crate::grid::{FaceGrid, ScalarGrid};
-use crate::metrics::RmsMax;
+use crate::metrics::{rms_max, RmsMax};
 pub use level_set::{
     AsField, Cuboid, FieldLevelSet, LevelSet, Obstacle, Slab, Sphere, Union, Walls,
 };
-pub use open_faces::OpenFaces;
 pub use wall_stop::WallStop;
 
 /// What happens to fluid flowing into an obstacle.
@@ -294,7 +293,7 @@ impl Boundary {
             .sum();
         let total: f64 = densities.iter().map(|r| r.total()).sum();
         Leak {
-            div_fluid: self.faces_open.flux_divergence_stats(vel),
+            div_fluid: rms_max(&self.faces_open.wet_flux_divergence(vel)),
             closed_flux_max: self.faces_open.closed_flux_max(vel),
             mass_fluid: total - inside,
             mass_inside: inside,

@@ -113,7 +113,7 @@ impl PastStep {
     /// measured").
     ///
     /// The midpoints' velocities come in one batch
-    /// ([`FaceGrid::sample_grid_points`], the same bits as the point
+    /// ([`crate::advection::sample_face_grid_points`], the same bits as the point
     /// query), into the scratch `u`.
     fn scale_volumes(&self, d: &Domain, g: &[Vec3], volume: &mut [f32], u: &mut Vec<Vec3>) {
         let dt_cells = self.dt / d.cell;
@@ -121,7 +121,7 @@ impl PastStep {
         let euler = self.backtrace == Backtrace::Euler;
         u.resize(g.len(), Vec3::ZERO);
         if !euler {
-            self.velocity.sample_grid_points(g, u);
+            crate::advection::sample_face_grid_points(&self.velocity, g, u);
         }
         for ((v, &gi), &ui) in volume.iter_mut().zip(g).zip(u.iter()) {
             let mid = if euler { gi } else { gi - 0.5 * dt_cells * ui };

@@ -42,6 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::advection::Backtrace;
 use crate::boundary::WallStop;
 use crate::domain::Domain;
+pub(crate) use crate::domain::{wrap_grid, wrap_world};
 use crate::error::InputError;
 use crate::field::{Scalar, VectorField};
 use crate::grid::{FaceGrid, ScalarGrid, VectorGrid};
@@ -571,51 +572,6 @@ pub enum DensityState {
     Selma(Box<SelmaState>),
 }
 
-/// Wrap `x` into `[lo, lo + len)`.
-#[inline(always)]
-fn wrap1(x: f32, lo: f32, len: f32) -> f32 {
-    if x < lo {
-        let y = x + len;
-        if y >= lo {
-            y
-        } else {
-            lo + (x - lo).rem_euclid(len)
-        }
-    } else if x >= lo + len {
-        let y = x - len;
-        if y < lo + len {
-            y
-        } else {
-            lo + (x - lo).rem_euclid(len)
-        }
-    } else {
-        x
-    }
-}
-
-/// Continuous grid coordinates wrapped into one period, `[−½, n − ½)` per
-/// axis (the periodic box); points inside are returned unchanged.
-#[inline(always)]
-pub(crate) fn wrap_grid(g: Vec3, dims: [usize; 3]) -> Vec3 {
-    Vec3::new(
-        wrap1(g.x, -0.5, dims[0] as f32),
-        wrap1(g.y, -0.5, dims[1] as f32),
-        wrap1(g.z, -0.5, dims[2] as f32),
-    )
-}
-
-/// A world point wrapped into the periodic box of `d`; points inside are
-/// returned unchanged.
-#[inline(always)]
-pub(crate) fn wrap_world(d: &Domain, p: Vec3) -> Vec3 {
-    let (o, s) = (d.origin, d.size());
-    Vec3::new(
-        wrap1(p.x, o.x, s.x),
-        wrap1(p.y, o.y, s.y),
-        wrap1(p.z, o.z, s.z),
-    )
-}
-
 /// [`wrap_world`] for many points of one box, its bounds computed once:
 /// the same bits.
 #[derive(Clone, Copy)]
@@ -663,8 +619,6 @@ mod tests {
         assert_eq!(wrap_world(&d, p), p);
         let q = wrap_world(&d, Vec3::new(-0.5, 4.25, 13.0));
         assert!((q - Vec3::new(3.5, 0.25, 1.0)).length() < 1e-5);
-        let g = wrap_grid(Vec3::new(-0.6, 7.5, 3.0), [8, 8, 8]);
-        assert!((g - Vec3::new(7.4, -0.5, 3.0)).length() < 1e-5);
     }
 
     #[test]

@@ -545,46 +545,6 @@ impl FaceGrid {
         self.sampler().at(g)
     }
 
-    /// [`FaceGrid::sample`] at each of `points` into `out`, the same values
-    /// to the bit: the semi-Lagrangian kernel's lanes at a time
-    /// (`crate::advection::kernel`), the points it leaves (more than a
-    /// period outside, NaN) through [`FaceSampler::at`].
-    ///
-    /// # Panics
-    /// If `points` and `out` differ in length.
-    pub fn sample_points(&self, points: &[Vec3], out: &mut [Vec3]) {
-        self.sample_mapped(points, out, |p| self.domain.grid_coords(p));
-    }
-
-    /// [`Self::sample_points`] at cell-centre grid coordinates (as
-    /// [`FaceGrid::sample_grid_coords`]).
-    ///
-    /// # Panics
-    /// If `g` and `out` differ in length.
-    pub fn sample_grid_points(&self, g: &[Vec3], out: &mut [Vec3]) {
-        self.sample_mapped(g, out, |g| g);
-    }
-
-    /// [`FaceSampler::at`] at `g(p)` for each of `points`, batched as
-    /// [`Self::sample_points`] says.
-    fn sample_mapped(&self, points: &[Vec3], out: &mut [Vec3], g: impl Fn(Vec3) -> Vec3) {
-        assert_eq!(
-            points.len(),
-            out.len(),
-            "sample_points: slice lengths differ"
-        );
-        let vel = crate::advection::kernel::Vel::new(self.sampler());
-        let isa = crate::simd::Isa::selected();
-        let mut at = [Vec3::ZERO; 256];
-        for (p, o) in points.chunks(at.len()).zip(out.chunks_mut(at.len())) {
-            let at = &mut at[..p.len()];
-            for (a, &p) in at.iter_mut().zip(p) {
-                *a = g(p);
-            }
-            crate::advection::kernel::velocities(isa, &vel, at, o);
-        }
-    }
-
     /// The point query with the component slices and layouts hoisted, for
     /// loops that sample many points.
     pub fn sampler(&self) -> FaceSampler<'_> {

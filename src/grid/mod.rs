@@ -7,12 +7,14 @@
 
 pub mod face;
 mod interpolate;
+pub mod open_faces;
 mod samples;
 mod scalar;
 mod vector;
 
 pub use face::{BoxKind, FaceGrid};
 pub use interpolate::{Stencil, Wrap};
+pub use open_faces::OpenFaces;
 pub use samples::Grid;
 pub use scalar::ScalarGrid;
 pub use vector::VectorGrid;

@@ -52,10 +52,12 @@ pub fn interpolant_divergence(vel: &dyn VectorField, domain: &Domain, points: &[
 }
 
 /// [`interpolant_divergence`] of a staggered velocity, its point query
-/// batched ([`FaceGrid::sample_points`]): the same value to the bit, for
+/// batched ([`crate::advection::sample_face_points`]): the same value to the bit, for
 /// the measures taken after every step.
 pub fn face_interpolant_divergence(vel: &FaceGrid, points: &[Vec3]) -> RmsMax {
-    relative_divergence(vel.domain(), points, |q, u| vel.sample_points(q, u))
+    relative_divergence(vel.domain(), points, |q, u| {
+        crate::advection::sample_face_points(vel, q, u)
+    })
 }
 
 /// [`interpolant_divergence`] with the point query `query(points, out)`:
@@ -185,7 +187,7 @@ mod tests {
             );
             // And the point query one point at a time.
             let mut batch = vec![Vec3::ZERO; pts.len()];
-            vel.sample_points(&pts, &mut batch);
+            crate::advection::sample_face_points(&vel, &pts, &mut batch);
             assert!(pts.iter().zip(&batch).all(|(&p, &u)| vel.sample(p) == u));
         }
     }

@@ -29,8 +29,8 @@
 use rayon::prelude::*;
 
 use super::PressureSolver;
-use crate::boundary::OpenFaces;
 use crate::domain::Domain;
+use crate::grid::OpenFaces;
 use crate::grid::{BoxKind, FaceGrid};
 
 /// Relative residual at which the conjugate gradients stop.

@@ -617,7 +617,7 @@ macro_rules! kernel {
             }
         }
 
-        /// `x` wrapped into `[−½, n − ½)` as `density::wrap1` does within a
+        /// `x` wrapped into `[−½, n − ½)` as `domain::wrap1` does within a
         /// period of it (one add or subtract of `n`), and the lanes further
         /// out (left to the reference, which takes the remainder).
         #[inline(always)]

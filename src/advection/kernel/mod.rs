@@ -273,7 +273,7 @@ pub(crate) fn sample(
 
 /// Each point of `g` (grid coordinates), in place, traced back through
 /// `vel` over `dt` cells and, with `into_box = Some(dims)`, wrapped into
-/// the periodic box as `crate::density::wrap_grid`.
+/// the periodic box as `crate::domain::wrap_grid`.
 pub(crate) fn points(
     isa: Isa,
     (vel, dt, backtrace): (&Vel, f32, Backtrace),
@@ -449,7 +449,7 @@ pub(crate) fn point_by_reference(
     let s = vel.sampler;
     let p = departure(s, g, s.at(g), dt, backtrace);
     match into_box {
-        Some(dims) => crate::density::wrap_grid(p, dims),
+        Some(dims) => crate::domain::wrap_grid(p, dims),
         None => p,
     }
 }

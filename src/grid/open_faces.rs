@@ -50,7 +50,6 @@ use rayon::prelude::*;
 
 use crate::domain::Domain;
 use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
-use crate::metrics::{rms_max, RmsMax};
 
 /// Layers of closed faces, counted from the fluid, that receive an extension
 /// of the velocity (enough for backtraces of a few cells into a wall).
@@ -170,18 +169,16 @@ impl OpenFaces {
             .for_each(|(r, _)| *r = 0.0);
     }
 
-    /// The flux divergence `D_A u` (module documentation) over the wet
-    /// cells, rms and max of its magnitude.
-    pub fn flux_divergence_stats(&self, vel: &FaceGrid) -> RmsMax {
+    /// The flux divergence `D_A u` (module documentation) at the wet cells,
+    /// in cell order, in f32 (for its statistics).
+    pub fn wet_flux_divergence(&self, vel: &FaceGrid) -> Vec<f32> {
         let mut out = vec![0.0f64; self.domain.len()];
         self.flux_divergence(vel, &mut out);
-        let v: Vec<f32> = out
-            .iter()
+        out.iter()
             .zip(&self.wet)
             .filter(|(_, &w)| w)
             .map(|(&d, _)| d as f32)
-            .collect();
-        rms_max(&v)
+            .collect()
     }
 
     /// `D_A u` at every cell into `out` (zero at dry cells), in f64.
