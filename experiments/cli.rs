@@ -1054,8 +1054,9 @@ fn run_all_experiments(parent: &std::path::Path, options: &AllOptions) -> Result
                 format!("failed: {e}")
             }
         };
-        estimate.done(exp.id, start.elapsed().as_secs_f64());
-        rows.push((exp, start.elapsed().as_secs_f64(), out, status));
+        let seconds = start.elapsed().as_secs_f64();
+        estimate.done(exp.id, seconds);
+        rows.push((exp, seconds, out, status));
     }
     let mut table = format!(
         "{:<7} {:<22} {:>9}  {:<28} {}\n",
