@@ -12,7 +12,9 @@
 //! filters choosing rows (a value with spaces in double quotes), the column (prefixed `max:` or `min:` for the
 //! largest or smallest over the chosen rows, else exactly one row must
 //! match), and the format: `%N` a percentage with N decimals, `fN` N
-//! decimals, `eN` `m × 10ⁿ` with N decimals in `m`. So a regenerated result
+//! decimals, `xN` a factor (`1.9×`), `eN` `m × 10ⁿ` with N decimals in
+//! `m`. Two such cells joined by a lone `/` give their ratio
+//! (`a/costs.csv kind=value ms / a/costs.csv kind=fast ms x1`). So a regenerated result
 //! changes the prose with it, and the paper test catches a stale paper.
 
 use std::path::Path;
@@ -76,12 +78,26 @@ fn words(spec: &str) -> Vec<String> {
     words
 }
 
-/// The formatted value a marker's `spec` names.
+/// The formatted value a marker's `spec` names: one cell
+/// (`FILE [COLUMN=VALUE …] COLUMN FORMAT`) or the ratio of two
+/// (`FILE … COLUMN / FILE … COLUMN FORMAT`).
 fn read(spec: &str, results: &Path) -> Result<String> {
     let words = words(spec);
     let words: Vec<&str> = words.iter().map(String::as_str).collect();
-    let [file, filters @ .., column, format] = words.as_slice() else {
+    let Some((format, cells)) = words.split_last() else {
         bail!("expected `FILE [COLUMN=VALUE …] COLUMN FORMAT`");
+    };
+    let value = match cells.iter().position(|w| *w == "/") {
+        Some(slash) => cell(&cells[..slash], results)? / cell(&cells[slash + 1..], results)?,
+        None => cell(cells, results)?,
+    };
+    format_value(value, format)
+}
+
+/// The number `FILE [COLUMN=VALUE …] [max:|min:]COLUMN` names.
+fn cell(words: &[&str], results: &Path) -> Result<f64> {
+    let [file, filters @ .., column] = words else {
+        bail!("expected `FILE [COLUMN=VALUE …] COLUMN` in {words:?}");
     };
     let path = results.join(file);
     let mut reader =
@@ -116,25 +132,25 @@ fn read(spec: &str, results: &Path) -> Result<String> {
             values.push(x);
         }
     }
-    let value = match (aggregate, values.as_slice()) {
+    Ok(match (aggregate, values.as_slice()) {
         (_, []) => bail!("no row of {file} matches {filters:?}"),
         (Some("max"), v) => v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
         (Some(_), v) => v.iter().copied().fold(f64::INFINITY, f64::min),
         (None, [x]) => *x,
         (None, v) => bail!("{} rows of {file} match {filters:?}; add a filter", v.len()),
-    };
-    format_value(value, format)
+    })
 }
 
-/// `value` in the marker's format (`%N`, `fN`, `eN`).
+/// `value` in the marker's format (`%N`, `fN`, `eN`, `xN`).
 fn format_value(value: f64, format: &str) -> Result<String> {
     let (kind, digits) = format.split_at(1);
     let digits: usize = digits
         .parse()
-        .map_err(|_| anyhow!("format {format} is not %N, fN or eN"))?;
+        .map_err(|_| anyhow!("format {format} is not %N, fN, eN or xN"))?;
     Ok(match kind {
         "%" => format!("{:.digits$} %", value * 100.0),
         "f" => format!("{value:.digits$}"),
+        "x" => format!("{value:.digits$}×"),
         "e" if value == 0.0 => "0".into(),
         "e" => {
             let text = format!("{value:.digits$e}");
@@ -151,7 +167,7 @@ fn format_value(value: f64, format: &str) -> Result<String> {
                 .collect();
             format!("{mantissa} × 10{superscript}")
         }
-        _ => bail!("format {format} is not %N, fN or eN"),
+        _ => bail!("format {format} is not %N, fN, eN or xN"),
     })
 }
 
@@ -183,6 +199,8 @@ mod tests {
         );
         let quoted = "<!-- value x/data.csv case=\"b c\" retained f2 -->x<!-- /value -->";
         assert!(fill(quoted, r.path()).unwrap().contains("-->0.99<!--"));
+        let ratio = "<!-- value x/data.csv case=a retained / x/data.csv case=\"b c\" retained x2 -->?<!-- /value -->";
+        assert!(fill(ratio, r.path()).unwrap().contains("-->1.05×<!--"));
         // Filling is idempotent.
         assert_eq!(fill(&out, r.path()).unwrap(), out);
     }

@@ -28,7 +28,7 @@
 //! use smokelab::noise::{NoiseKind, NoiseSpec};
 //! let spec = NoiseSpec { kind: NoiseKind::SmoothSim, seed: 7, ..Default::default() };
 //! let v = spec.build().unwrap();
-//! // Smooth simulation noise vanishes on lattice edges (000 §4, "dead spots").
+//! // Smooth simulation noise vanishes on lattice edges (Patel & Taylor §4, "dead spots").
 //! assert_eq!(v.eval(Vec3::new(2.0, 3.0, 0.5)), Vec3::ZERO);
 //! ```
 
@@ -71,12 +71,12 @@ pub enum NoiseKind {
     Value2d,
     /// Three offset Perlin noises (notes eq 3.9; not divergence-free).
     Perlin,
-    /// Fast simulation noise (000 §3).
+    /// Fast simulation noise (Patel & Taylor §3).
     FastSim,
     /// 2D fast simulation noise.
     #[cfg_attr(feature = "clap", value(name = "fast-sim-2d"))]
     FastSim2d,
-    /// Smooth simulation noise (000 §4).
+    /// Smooth simulation noise (Patel & Taylor §4).
     SmoothSim,
     /// 2D smooth simulation noise.
     #[cfg_attr(feature = "clap", value(name = "smooth-sim-2d"))]
@@ -86,14 +86,14 @@ pub enum NoiseKind {
     /// Analytic 2D curl of one Perlin potential.
     #[cfg_attr(feature = "clap", value(name = "curl-2d"))]
     Curl2d,
-    /// Curl of three Perlin potentials by finite differences (001).
+    /// Curl of three Perlin potentials by finite differences (i_dovelemon 2020).
     CurlFd,
-    /// 2D curl by finite differences (001).
+    /// 2D curl by finite differences (i_dovelemon 2020).
     #[cfg_attr(feature = "clap", value(name = "curl-fd-2d"))]
     CurlFd2d,
-    /// ∇A × ∇B of two Perlin noises (004).
+    /// ∇A × ∇B of two Perlin noises (bitangent noise, "Simulation noise").
     Bitangent,
-    /// Stam–Fiume FFT turbulence tile (003).
+    /// Stam–Fiume FFT turbulence tile (Dunn, "Warping Implicit Surfaces").
     Spectral,
 }
 
