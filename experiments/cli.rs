@@ -216,7 +216,7 @@ pub struct SolverFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub save_every: Option<usize>,
-    /// Fine metrics (2× densities, spectra, interpolant divergence) every K steps (default 10).
+    /// Fine metrics (2× densities, spectra, interpolant divergence) every K steps and at the last (default 100: each costs about 1.5 steps at 128³, so about 1.5 % of a run; the per-step measures add about 3 %).
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub metrics_every: Option<usize>,

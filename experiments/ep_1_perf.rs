@@ -27,7 +27,8 @@
 //!   every `metrics_every` steps (`run::FineProbes::measure`: each gas at
 //!   2×, the top-octave share, the interpolant at 4096 points); the
 //!   per-step measures ÷ step and the
-//!   run's metrics at the default cadence (`metrics_every` = 10) ÷ step;
+//!   run's metrics at the default cadence (`SolverConfig::metrics_every`,
+//!   100) ÷ step;
 //! - **kernel widths**: the same rounds (RK2 and Euler steps on 2
 //!   threads, their stage times) once per instruction set this CPU has
 //!   (`smokelab::simd::Isa::available`: scalar, AVX2 and AVX-512 here; NEON

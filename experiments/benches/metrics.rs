@@ -5,7 +5,8 @@
 //! `metrics_every` steps, on the 128³ hot/cold state, in the global rayon
 //! pool. `warm/…` repeats each on cached data; `cold/…` first writes a
 //! 64 MB buffer (untimed, as experiment P-1's bandwidth pass runs before
-//! its measures), so the grids come from memory.
+//! its measures), so the grids come from memory. `fine_128/…`: the fine
+//! measures (`run::FineProbes::measure`) and their parts, warm.
 //!
 //! Run: `cargo bench -p smokelab-app --bench metrics` (about a minute).
 
@@ -15,7 +16,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, Criterion};
 use rayon::prelude::*;
 use smokelab::advection::Backtrace;
 use smokelab::metrics;
-use smokelab_app::run::{StepMeasures, PROBE_POINTS};
+use smokelab_app::run::{FineProbes, StepMeasures, PROBE_POINTS};
 use std::hint::black_box;
 
 /// Bytes written before each cold measure: twice the L3 cache.
@@ -56,6 +57,41 @@ fn benches(c: &mut Criterion) {
             )
         });
     }
+    g.finish();
+    fine(c, &sim);
+}
+
+/// The fine measures (`run::FineProbes::measure`) and their parts, warm.
+fn fine(c: &mut Criterion, sim: &smokelab::simulation::Simulation) {
+    use smokelab::density::probe::{mean_gradient, DensityProbe};
+    use smokelab::grid::ScalarGrid;
+    use smokelab::metrics::SpectralShare;
+    let domain = *sim.domain();
+    let mut probes = FineProbes::new(domain);
+    let mut probe = DensityProbe::new(domain);
+    let fine_domain = domain.refined(2);
+    let mut fine = ScalarGrid::zeros(fine_domain);
+    sim.gases[0].model.sample(&mut fine);
+    let mut spectrum = SpectralShare::new(fine_domain.dims);
+    let mut ke = SpectralShare::new(domain.dims);
+    let mut g = c.benchmark_group("fine_128");
+    g.sample_size(10);
+    g.bench_function("measure", |b| {
+        b.iter(|| black_box(probes.measure(sim).ke_top_octave))
+    });
+    g.bench_function("one_gas", |b| {
+        b.iter(|| black_box(probe.measure(&sim.gases[0].model)))
+    });
+    g.bench_function("sample_2x", |b| {
+        b.iter(|| sim.gases[0].model.sample(&mut fine))
+    });
+    g.bench_function("grad_2x", |b| b.iter(|| black_box(mean_gradient(&fine))));
+    g.bench_function("spectrum_2x", |b| {
+        b.iter(|| black_box(spectrum.share_above(&[fine.as_slice()], [64, 64, 64])))
+    });
+    g.bench_function("ke_top_octave", |b| {
+        b.iter(|| black_box(metrics::top_octave_share(&mut ke, &sim.velocity)))
+    });
     g.finish();
 }
 

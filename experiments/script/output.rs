@@ -43,7 +43,7 @@ use crate::run::{FineProbes, StepMeasures};
 use crate::table::Log;
 
 /// The steps whose fine measures `record(frame, dt, velocity, gases)`
-/// takes: `smokelab run`'s default `--metrics-every`.
+/// takes: those of `smokelab run --metrics-every 10`.
 pub const FINE_EVERY: usize = 10;
 
 /// One cell of a `metrics.csv` row: an integer or a number, written as

@@ -64,6 +64,9 @@ fn hot_cold_script_reproduces_run_hot_cold() {
             "20",
             "--save-every",
             "20",
+            // The script's cadence of the fine measures.
+            "--metrics-every",
+            "10",
             "--quiet",
             "--out",
             "run",

@@ -22,6 +22,22 @@
 //!   represent. Trilinear interpolation itself leaks a little energy there,
 //!   so a gridded density's value is the baseline, not zero.
 //!
+//! A gridded density in a periodic box needs no fine transform for its
+//! sub-grid fraction: its fine samples are the grid's trilinear interpolant,
+//! whose spectrum along each axis is the grid's own times the
+//! interpolation's gain. With fine samples `f[2i] = ¾ρ_i + ¼ρ_{i−1}`,
+//! `f[2i+1] = ¾ρ_i + ¼ρ_{i+1}` on `2N` points,
+//!
+//! ```text
+//! f̂(k) = H(k) ρ̂(k mod N),   |H(k)|² = (½ cos(3ω/2) + 3/2 cos(ω/2))²,   ω = πk/N,
+//! ```
+//!
+//! so each coarse bin `q` stands for the fine bins `q` and `q + N` per axis,
+//! weighted by `|H|²` ([`refined_weights`]); the share comes from one
+//! transform of the coarse grid (eight times fewer values) with the fine
+//! one's value to rounding. A clamped (closed-box) density's fine samples
+//! differ at the walls, and are transformed at 2×.
+//!
 //! The transforms (real-to-complex along x, complex along y and z) are
 //! planned once in [`DensityProbe::new`] and every buffer is reused.
 
@@ -32,7 +48,8 @@ use serde::Serialize;
 use super::{DensityMode, DensityModel};
 use crate::domain::Domain;
 use crate::field::{eval_supported, ScalarField};
-use crate::grid::ScalarGrid;
+use crate::grid::{ScalarGrid, Wrap};
+use crate::metrics::spectrum::AxisWeight;
 use crate::metrics::SpectralShare;
 
 /// Refinement of the measuring grid over the velocity grid, per axis.
@@ -54,11 +71,20 @@ pub struct DensityMeasures {
 
 /// Planned transforms and buffers for measuring densities of one velocity grid.
 pub struct DensityProbe {
-    coarse: Domain,
     fine: ScalarGrid,
     /// Further fine grids for [`Self::measure_all`], made when first needed.
     more: Vec<ScalarGrid>,
-    spectrum: SpectralShare,
+    spectra: Spectra,
+}
+
+/// The transforms of the sub-grid fraction: of the fine samples, and of a
+/// periodic gridded density's own grid with the gains of its 2×
+/// interpolant (module documentation).
+struct Spectra {
+    coarse: Domain,
+    fine: SpectralShare,
+    grid: SpectralShare,
+    gains: [Vec<AxisWeight>; 3],
 }
 
 impl DensityProbe {
@@ -66,10 +92,14 @@ impl DensityProbe {
     pub fn new(coarse: Domain) -> Self {
         let fine = coarse.refined(REFINE);
         Self {
-            coarse,
             fine: ScalarGrid::zeros(fine),
             more: Vec::new(),
-            spectrum: SpectralShare::new(fine.dims),
+            spectra: Spectra {
+                coarse,
+                fine: SpectralShare::new(fine.dims),
+                grid: SpectralShare::new(coarse.dims),
+                gains: coarse.dims.map(refined_weights),
+            },
         }
     }
 
@@ -89,13 +119,14 @@ impl DensityProbe {
         grids
             .map(|g| std::mem::size_of_val(g.as_slice()))
             .sum::<usize>()
-            + self.spectrum.bytes()
+            + self.spectra.fine.bytes()
+            + self.spectra.grid.bytes()
     }
 
     /// Sample `model` on the fine grid and measure it.
     pub fn measure(&mut self, model: &DensityModel) -> DensityMeasures {
         model.sample(&mut self.fine);
-        self.measure_sampled()
+        measure_sampled(&self.fine, Some(model), &mut self.spectra)
     }
 
     /// [`Self::measure`] of every model, sampled together
@@ -117,37 +148,64 @@ impl DensityProbe {
             .chain(&mut self.more)
             .collect();
         DensityModel::sample_all(models, &mut grids);
-        let (coarse, spectrum) = (&self.coarse, &mut self.spectrum);
+        let spectra = &mut self.spectra;
         std::iter::once(&self.fine)
             .chain(&self.more)
-            .map(|g| measure_sampled(g, coarse, spectrum))
+            .zip(models)
+            .map(|(g, m)| measure_sampled(g, Some(m), spectra))
             .collect()
     }
 
     /// Sample any field on the fine grid and measure it.
     pub fn measure_field(&mut self, field: &dyn ScalarField) -> DensityMeasures {
         self.fine.write_field(field);
-        self.measure_sampled()
-    }
-
-    fn measure_sampled(&mut self) -> DensityMeasures {
-        measure_sampled(&self.fine, &self.coarse, &mut self.spectrum)
+        measure_sampled(&self.fine, None, &mut self.spectra)
     }
 }
 
-/// The measures of a density sampled on `fine`, the velocity grid `coarse`
-/// refined [`REFINE`] times.
+/// The measures of a density sampled on `fine`, the velocity grid refined
+/// [`REFINE`] times: of `model` when it is the density sampled (a periodic
+/// gridded one's sub-grid fraction from its own grid), else of a field.
 fn measure_sampled(
     fine: &ScalarGrid,
-    coarse: &Domain,
-    spectrum: &mut SpectralShare,
+    model: Option<&DensityModel>,
+    spectra: &mut Spectra,
 ) -> DensityMeasures {
+    let cut = spectra.coarse.dims.map(|n| n / 2);
+    let subgrid_fraction = match model.map(|m| (m.mode(), m.density())) {
+        Some((DensityMode::Gridded, grid)) if grid.wrap() == Wrap::Periodic => {
+            spectra.grid.weighted_share(grid.as_slice(), &spectra.gains)
+        }
+        _ => spectra.fine.share_above(&[fine.as_slice()], cut),
+    };
     DensityMeasures {
         mass: fine.total(),
         max: fine.max_abs() as f64,
         mean_gradient: mean_gradient(fine),
-        subgrid_fraction: spectrum.share_above(&[fine.as_slice()], coarse.dims.map(|n| n / 2)),
+        subgrid_fraction,
     }
+}
+
+/// The gains of the bins `q = 0 … n − 1` of an axis of `n` cells on the
+/// spectrum of its trilinear samples at [`REFINE`] = 2 (module
+/// documentation): in the total `|H(q)|² + |H(q + n)|²`, below the cut
+/// those of the two fine bins whose signed index is at most `n/2`.
+fn refined_weights(n: usize) -> Vec<AxisWeight> {
+    let gain = |k: usize| {
+        let w = std::f64::consts::PI * k as f64 / n as f64;
+        let h = 0.5 * (1.5 * w).cos() + 1.5 * (0.5 * w).cos();
+        h * h
+    };
+    let below = |k: usize| k.min(2 * n - k) <= n / 2;
+    (0..n)
+        .map(|q| {
+            let fine = [q, q + n];
+            AxisWeight {
+                total: fine.iter().map(|&k| gain(k)).sum(),
+                below: fine.iter().filter(|&&k| below(k)).map(|&k| gain(k)).sum(),
+            }
+        })
+        .collect()
 }
 
 /// `∫ f dV` over the box of `domain` by the midpoint rule on the grid
@@ -310,6 +368,31 @@ mod tests {
             (low.mean_gradient - expect).abs() < 2e-2 * expect,
             "{low:?}"
         );
+    }
+
+    /// A periodic gridded density's sub-grid fraction, from its own grid
+    /// and the interpolation's gains, is the one of its 2× samples'
+    /// transform (here 0.0199 on 12 × 10 × 8 cells of noise; without the
+    /// gains it would be 0, the coarse grid holding nothing beyond its
+    /// Nyquist index). Measured difference: 7e-8 relative (f32 transforms
+    /// of different sizes).
+    #[test]
+    fn a_periodic_gridded_share_is_its_fine_samples_share() {
+        let d = Domain::new(Vec3::new(0.5, -1.0, 2.0), 0.5, [12, 10, 8]).unwrap();
+        let mut model = DensityModel::new(&Default::default(), d, None, None);
+        let DensityModel::Gridded(g) = &mut model else {
+            panic!("the default density is gridded")
+        };
+        for (i, v) in g.density_mut().as_slice_mut().iter_mut().enumerate() {
+            *v = ((i * 7919) % 1009) as f32 / 1009.0;
+        }
+        let mut probe = DensityProbe::new(d);
+        let from_grid = probe.measure(&model);
+        let from_samples = probe.measure_field(model.density());
+        let (a, b) = (from_grid.subgrid_fraction, from_samples.subgrid_fraction);
+        assert!(b > 5e-3 && b < 0.5, "energy on both sides of the cut: {b}");
+        assert!((a - b).abs() < 1e-5 * b, "{a} vs {b}");
+        assert!((from_grid.mass - from_samples.mass).abs() < 1e-5 * from_grid.mass);
     }
 
     #[test]

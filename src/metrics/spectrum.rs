@@ -41,27 +41,56 @@ impl SpectralShare {
     /// # Panics
     /// If an array does not hold `nx·ny·nz` values.
     pub fn share_above(&mut self, arrays: &[&[f32]], cut: [usize; 3]) -> f64 {
+        let dims = self.fft.dims();
+        let signed = |m: usize, n: usize| if m <= n / 2 { m } else { n - m };
+        let weights: [Vec<AxisWeight>; 3] = std::array::from_fn(|a| {
+            (0..dims[a])
+                .map(|m| AxisWeight {
+                    total: 1.0,
+                    below: if signed(m, dims[a]) > cut[a] {
+                        0.0
+                    } else {
+                        1.0
+                    },
+                })
+                .collect()
+        });
         let (mut total, mut above) = (0.0, 0.0);
         for a in arrays {
-            let (t, h) = self.energy(a, cut);
+            let (t, h) = self.energy(a, &weights);
             total += t;
             above += h;
         }
-        if total > 0.0 {
-            above / total
-        } else {
-            0.0
-        }
+        share(total, above)
     }
 
-    /// Non-mean energy `Σ_{k≠0} |f̂(k)|²` of `src`, and its part beyond `cut`
-    /// (bins `kx = 1 … nx/2 − 1` stand for `±kx` and count twice).
-    fn energy(&mut self, src: &[f32], cut: [usize; 3]) -> (f64, f64) {
+    /// [`Self::share_above`] of the array whose spectrum is this array's
+    /// times a separable gain: the energy of bin `m` weighted by
+    /// `Π_a weights[a][m_a].total` in the total and by
+    /// `Π_a total − Π_a below` in the part above — e.g. a finer grid's
+    /// samples of this array's interpolant, each bin standing for the fine
+    /// bins it aliases to (`density::probe`). Each table holds one entry
+    /// per index along its axis, even in `m` ↔ `N − m` (a real array's
+    /// spectrum is, and x holds only bins `0 … nx/2`); bin 0 is left out.
+    ///
+    /// # Panics
+    /// If `src` does not hold `nx·ny·nz` values or a table is not its axis long.
+    pub fn weighted_share(&mut self, src: &[f32], weights: &[Vec<AxisWeight>; 3]) -> f64 {
+        let (total, above) = self.energy(src, weights);
+        share(total, above)
+    }
+
+    /// Weighted non-mean energy of `src` (bin 0 left out), and its part
+    /// above ([`Self::weighted_share`]); bins `kx = 1 … nx/2 − 1` stand for
+    /// `±kx` and count twice.
+    fn energy(&mut self, src: &[f32], weights: &[Vec<AxisWeight>; 3]) -> (f64, f64) {
         let [nx, ny, nz] = self.fft.dims();
         assert_eq!(src.len(), nx * ny * nz, "spectrum: array of another size");
-        let signed = |m: usize, n: usize| if m <= n / 2 { m } else { n - m };
-        let beyond_y: Vec<bool> = (0..ny).map(|j| signed(j, ny) > cut[1]).collect();
-        let beyond_z: Vec<bool> = (0..nz).map(|k| signed(k, nz) > cut[2]).collect();
+        assert!(
+            weights.iter().zip([nx, ny, nz]).all(|(w, n)| w.len() == n),
+            "spectrum: a weight table of another length"
+        );
+        let [wx, wy, wz] = weights;
         self.fft.forward(src, |v| v);
         let columns = self.fft.spectra(|i, col: &[Complex32]| {
             let w = if i == 0 || (nx % 2 == 0 && i == nx / 2) {
@@ -71,15 +100,15 @@ impl SpectralShare {
             };
             let (mut total, mut above) = (0.0f64, 0.0f64);
             for (j, line) in col.chunks_exact(nz).enumerate() {
+                let (t, b) = (wx[i].total * wy[j].total, wx[i].below * wy[j].below);
                 for (k, c) in line.iter().enumerate() {
                     if i == 0 && j == 0 && k == 0 {
                         continue;
                     }
                     let e = w * c.norm_sqr() as f64;
-                    total += e;
-                    if i > cut[0] || beyond_y[j] || beyond_z[k] {
-                        above += e;
-                    }
+                    let t = t * wz[k].total;
+                    total += e * t;
+                    above += e * (t - b * wz[k].below);
                 }
             }
             (total, above)
@@ -88,6 +117,26 @@ impl SpectralShare {
         columns
             .into_iter()
             .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1))
+    }
+}
+
+/// The gain on one index of one axis in [`SpectralShare::weighted_share`]:
+/// on the energy counted in the total, and on the energy counted below the
+/// cut (the part above is the difference of the products).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisWeight {
+    /// Gain in the total.
+    pub total: f64,
+    /// Gain of the part below the cut.
+    pub below: f64,
+}
+
+/// `above / total`, 0 when there is no energy.
+fn share(total: f64, above: f64) -> f64 {
+    if total > 0.0 {
+        above / total
+    } else {
+        0.0
     }
 }
 
