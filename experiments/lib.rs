@@ -61,6 +61,7 @@ mod e08_3_selma_wake;
 mod ea_1_henyey_greenstein;
 mod ea_2_fournier_forand;
 mod ec_1_convergence;
+mod ev_1_validation;
 pub mod ep_1_perf;
 mod en_3_simulation_noise_2d;
 mod en_4_artist_spline;

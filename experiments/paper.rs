@@ -229,6 +229,21 @@ pub fn build(root: &Path) -> Result<()> {
 const HTML_STYLE: &str = "<style>table { display: block; overflow-x: auto; max-width: 100%; } \
                           img { max-width: 100%; height: auto; }</style>";
 
+/// What fills the paper's `validation` block: experiment V-1's
+/// `table.md`, or while V-1 has not run, the command that makes it.
+///
+/// # Errors
+/// A `table.md` that exists but cannot be read.
+fn validation(results: &Path) -> Result<String> {
+    let table = results.join("validation/table.md");
+    if !table.exists() {
+        return Ok(
+            "*Not run yet: `smokelab experiment V-1`, then `smokelab paper --overwrite`.*".into(),
+        );
+    }
+    std::fs::read_to_string(&table).with_context(|| format!("cannot read {}", table.display()))
+}
+
 /// `root/paper/paper.md` with its generated blocks and alt texts refreshed
 /// from `root/results/`: what `smokelab paper` writes.
 ///
@@ -250,6 +265,9 @@ pub fn refreshed(root: &Path) -> Result<String> {
     let perf = root.join("results/perf");
     if perf.join("table.md").exists() && doc.contains("<!-- performance:begin -->") {
         doc = replace_block(&doc, "performance", &performance(&perf)?)?;
+    }
+    if doc.contains("<!-- validation:begin -->") {
+        doc = replace_block(&doc, "validation", &validation(&root.join("results"))?)?;
     }
     if doc.contains("<!-- claims:begin -->") {
         doc = replace_block(

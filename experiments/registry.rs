@@ -82,6 +82,7 @@ pub const ALL: &[Experiment] = &[
     crate::en_4_artist_spline::EXPERIMENT,
     crate::ec_1_convergence::EXPERIMENT,
     crate::ep_1_perf::EXPERIMENT,
+    crate::ev_1_validation::EXPERIMENT,
 ];
 
 /// The ids of all experiments.
