@@ -394,7 +394,7 @@ fn scaled(f: Scalar, s: f32, center: Vec3) -> Scalar {
 /// The stream past the sphere in the sphere's frame after the warm-up, and
 /// the figure of its mid-plane: x-velocity (white = U, black = at rest or
 /// reversed) and vorticity `ω_z`.
-fn warmed_up(n: usize) -> Result<(Simulation, Vec<(usize, f32)>, RgbImage)> {
+fn warmed_up(n: usize) -> Result<(Simulation, LiftFaces, RgbImage)> {
     let domain = Domain::new(Vec3::ZERO, L / n as f32, [2 * n, n, n])?;
     let params = StepParams {
         dt: DT,
@@ -525,11 +525,15 @@ impl ScalarField for CrossSection {
     }
 }
 
+/// Indices into the y-velocity's faces, each with the weight of the lift
+/// there.
+type LiftFaces = Vec<(usize, f32)>;
+
 /// The faces of the y-velocity the body's lift acts on, with their weights
 /// `w(x)`: a Gaussian of width [`CHORD`] in x and y about the sphere's
 /// centre, times a smooth cut-off `½(1 − tanh((|z − z_c| − SPAN/2)/CHORD·2))`
 /// across the span, over the faces where it exceeds 10⁻³.
-fn lift_weights(sim: &Simulation) -> Vec<(usize, f32)> {
+fn lift_weights(sim: &Simulation) -> LiftFaces {
     let dims = sim.velocity.face_dims(1);
     let mut out = vec![];
     let mut idx = 0;
