@@ -15,6 +15,7 @@ use std::time::Instant;
 
 use anyhow::Result;
 use glam::Vec3;
+use image::RgbImage;
 use serde::Serialize;
 
 use crate::model_render::render_framed;
@@ -113,6 +114,19 @@ pub(crate) enum Look {
     Volume,
 }
 
+impl Look {
+    /// Extinction per unit density.
+    pub(crate) fn kappa(self) -> f32 {
+        match self {
+            Look::Geometry => 60.0,
+            Look::Volume => 6.0,
+        }
+    }
+}
+
+/// Display colour of a cloud.
+pub(crate) const CLOUD_COLOR: Vec3 = Vec3::new(0.92, 0.93, 0.95);
+
 /// What [`write_panels`] measured of one panel.
 pub(crate) struct Shown {
     /// `∫ρ` on the base grid.
@@ -122,21 +136,43 @@ pub(crate) struct Shown {
 }
 
 /// Render `panels` side by side into `<out>/<image>` with `look`, each
-/// headed by its `heading` and the figure by `title`, all framed by one
-/// camera on the box that holds every panel's density; write each
-/// panel's mesh as `<label>.obj` for the geometry look. Returns what was
-/// measured per panel, for the experiment's `data.csv`.
+/// headed by its `heading` and the figure by `title`, as [`render_panels`].
+/// Returns what was measured per panel, for the experiment's `data.csv`.
 pub(crate) fn write_panels(
+    ctx: &crate::registry::Context,
+    panels: Vec<Panel>,
+    sizes: (usize, u32),
+    look: Look,
+    (title, image): (&str, &str),
+) -> Result<Vec<Shown>> {
+    let headings: Vec<String> = panels.iter().map(|p| p.heading.clone()).collect();
+    let rendered = render_panels(ctx, panels, sizes, look)?;
+    panels::save_row(&ctx.out.join(image), &rendered.images, 6, title, &headings)?;
+    Ok(rendered.shown)
+}
+
+/// What [`render_panels`] made of a row of panels.
+pub(crate) struct Rendered {
+    /// What was measured per panel.
+    pub shown: Vec<Shown>,
+    /// One render per panel.
+    pub images: Vec<RgbImage>,
+    /// The box the camera framed: whole cells of the base grid holding
+    /// every panel's density.
+    pub frame: Domain,
+}
+
+/// Render each of `panels` with `look`, all framed by one camera on the
+/// box that holds every panel's density, on the base grid of `grid` cells
+/// at `pixels` square; write each panel's mesh as `<label>.obj` for the
+/// geometry look.
+pub(crate) fn render_panels(
     ctx: &crate::registry::Context,
     panels: Vec<Panel>,
     (grid, pixels): (usize, u32),
     look: Look,
-    (title, image): (&str, &str),
-) -> Result<Vec<Shown>> {
-    let kappa = match look {
-        Look::Geometry => 60.0,
-        Look::Volume => 6.0,
-    };
+) -> Result<Rendered> {
+    let kappa = look.kappa();
     let dom = domain(grid)?;
     let densities: Vec<Scalar> = panels
         .iter()
@@ -162,18 +198,19 @@ pub(crate) fn write_panels(
             volume: g.total(),
             mesh,
         });
-        let color = Vec3::new(0.92, 0.93, 0.95);
         images.push(render_framed(
-            vec![(p.label.clone(), density, color)],
+            vec![(p.label.clone(), density, CLOUD_COLOR)],
             (dom, frame),
             pixels,
             0.5,
             kappa,
         )?);
     }
-    let headings: Vec<String> = panels.iter().map(|p| p.heading.clone()).collect();
-    panels::save_row(&ctx.out.join(image), &images, 6, title, &headings)?;
-    Ok(shown)
+    Ok(Rendered {
+        shown,
+        images,
+        frame,
+    })
 }
 
 /// The smallest box of whole cells of `dom` holding every positive cell of

@@ -66,11 +66,13 @@ fn nacelle_residual_falls_within_three_iterations() {
 }
 
 /// 08-3: a cloud at least five body diameters across, a wake cut through
-/// it and the rest of it in place, and vorticity in the wake. Smoke size
-/// measured after the passage (t = 10 D/U): width 5.6 D; 15 % of the mass
-/// in the corridor (radius 1.5 D around the path) moved more than D, none
-/// outside it (mean displacement 0.05 D); rms |ω| 0.33 U/D in the corridor
-/// against 0.0004 outside.
+/// it and the rest of it in place, and vorticity in the wake, the lifting
+/// body's trailing vortices among it. Smoke size measured after the
+/// passage (t = 10 D/U): width 6.5 D; 39 % of the mass in the corridor
+/// (radius 1.5 D around the path) moved more than D, 2.2 % outside it
+/// (mean displacement 0.37 D); rms |ω| 0.35 U/D in the corridor against
+/// 0.02 outside; rms streamwise ω_x 0.16 U/D in the corridor (0.0005
+/// without the lift).
 #[test]
 fn selma_wake_cuts_the_cloud_and_leaves_the_rest_in_place() {
     let dir = tempfile::tempdir().unwrap();
@@ -87,18 +89,30 @@ fn selma_wake_cuts_the_cloud_and_leaves_the_rest_in_place() {
     // The rest of the cloud is in place, and it is a real share of the cloud.
     assert!(at(after, "outside_share") > 0.3, "{after:?}");
     assert!(at(after, "moved_outside") <= 0.10, "{after:?}");
-    assert!(at(after, "mean_displacement_outside") < 0.2, "{after:?}");
+    assert!(at(after, "mean_displacement_outside") < 0.6, "{after:?}");
     // The wake moved the cloud in the corridor, more with the passage.
-    assert!(at(after, "moved_inside") > 0.1, "{after:?}");
+    assert!(at(after, "moved_inside") > 0.2, "{after:?}");
     assert!(at(after, "moved_inside") > 3.0 * at(&rows[1], "moved_inside"));
     // Vorticity of order U/D lives in the wake, not outside it.
     assert!(at(after, "vorticity_rms_corridor") > 0.2, "{after:?}");
     assert!(at(after, "vorticity_peak") > 1.0, "{after:?}");
     assert!(
-        at(after, "vorticity_rms_corridor") > 100.0 * at(after, "vorticity_rms_outside"),
+        at(after, "vorticity_rms_corridor") > 10.0 * at(after, "vorticity_rms_outside"),
         "{after:?}"
     );
-    for f in ["wake.png", "slice.png", "flow.png", "manifest.json"] {
+    // The trailing vortices: streamwise vorticity, which the axisymmetric
+    // wake of a sphere alone does not have.
+    assert!(
+        at(after, "streamwise_vorticity_rms_corridor") > 0.08,
+        "{after:?}"
+    );
+    for f in [
+        "wake.png",
+        "slice.png",
+        "section.png",
+        "flow.png",
+        "manifest.json",
+    ] {
         assert!(out.join(f).is_file(), "no {f}");
     }
 }
@@ -140,18 +154,24 @@ fn cloud_layers_stand_on_the_bunny() {
 /// 03-4: with `Q` set against the previous layer's amplitude (eq 3.8),
 /// billow 2 leaves the cleared layers at most a quarter of the mean
 /// displacement billow 0.33 leaves (measured: 0.216 at smoke size, 0.229 at
-/// the default).
+/// the default), and the share of the surface they leave bare (raised by
+/// less than 0.01, shown white in the figure's second row) rises with
+/// billow to most of it (smoke 0.22 → 0.85, default 0.26 → 0.84). Both
+/// figures have a second row of panels under the whole clouds.
 #[test]
 fn large_billow_clears_the_canyons() {
     let dir = tempfile::tempdir().unwrap();
     let out = smoke_experiment(dir.path(), "03-4");
     let billow = column(&out, "billow");
     let cleared = column(&out, "displacement_cleared");
+    let bare = column(&out, "bare_share");
     assert_eq!(billow, [0.33, 0.5, 0.67, 1.0, 2.0]);
     assert!(cleared[4] <= 0.25 * cleared[0], "{cleared:?}");
-    assert_labelled(&out.join("billow.png"), 64);
+    assert!(bare.windows(2).all(|w| w[1] > w[0]), "{bare:?}");
+    assert!(bare[4] >= 0.75 && bare[0] <= 0.35, "{bare:?}");
+    assert_labelled(&out.join("billow.png"), 2 * 64);
     let out = smoke_experiment(dir.path(), "03-5");
-    assert_labelled(&out.join("billow.png"), 64);
+    assert_labelled(&out.join("billow.png"), 2 * 64);
 }
 
 /// 03-7: strong advection separates portions of cloud from the main body
