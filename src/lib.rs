@@ -40,6 +40,6 @@ pub mod boundary;
 pub mod density;
 pub mod noise;
 pub mod model;
-pub mod render;
 pub mod simulation;
 pub mod scenario;
+pub mod render;
