@@ -109,8 +109,8 @@ use rayon::prelude::*;
 
 use super::cell_average::{cell_points, cell_values, sub_points, sub_sum, CellSamples, SUB};
 use super::{BoxWrap, Buffer, DensityMode, StepInput};
-use crate::advection::{departure_points, Backtrace};
 use crate::advection::semi_lagrangian::{sample_points, CellRows};
+use crate::advection::{departure_points, Backtrace};
 use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{eval_supported, Bounds, Scalar, ScalarField};
