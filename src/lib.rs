@@ -35,6 +35,7 @@ pub mod simd;
 pub mod io;
 pub mod pressure;
 pub mod advection;
+pub mod forces;
 pub mod metrics;
 pub mod boundary;
 pub mod density;
