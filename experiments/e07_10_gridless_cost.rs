@@ -42,7 +42,7 @@
 //!
 //! The series evaluate every sample, as the notes' renderer does (their
 //! wall's bound is dropped). The worst point (`k = F`, fine march) is then
-//! rendered once more with empty-space skipping (`render::occupancy`: the
+//! rendered once more with empty-space skipping (`density::occupancy`: the
 //! bound of the gridless chain over the frame-0 row grids); the manifest's
 //! `empty_space` holds the bound's build time and flagged share of the
 //! box, both renders' seconds, samples and samples/s, the samples ratio
@@ -167,7 +167,7 @@ fn unskipped(
 }
 
 /// The worst point (`k = F`, fine march) once more with empty-space
-/// skipping (`render::occupancy`): the bound's build time and flagged
+/// skipping (`density::occupancy`): the bound's build time and flagged
 /// share, the render's time, samples and skipped sub-steps beside the
 /// unskipped point's (`rows`), and whether the picture is the same as the
 /// unskipped `picture`.

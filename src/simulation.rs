@@ -29,7 +29,6 @@
 use std::sync::Arc;
 
 use glam::Vec3;
-use rayon::prelude::*;
 
 use crate::advection::{AdvectionOptions, Advector, Backtrace, CflError};
 use crate::boundary::{Boundary, ObstacleMethod};
@@ -38,6 +37,7 @@ use crate::density::{total_bytes, DensityModel, DensityOptions, DensityState, St
 use crate::domain::Domain;
 use crate::error::InputError;
 use crate::field::{Scalar, VectorField};
+use crate::forces;
 use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
 use crate::pressure::obstacles::{CgReport, ObstacleProjection, TOLERANCE};
 use crate::pressure::{PressurePrecision, PressureSolver};
@@ -456,73 +456,12 @@ impl Simulation {
     }
 
     /// Eq 6.5, force: `u += −Δt g⃗ Σ lift·ρ` — with hot lift +1 and cold −1
-    /// this is the notes' `dt*gravity*(cold − hot)`. Each face gets the mean
-    /// of the two cells it separates, `u_a[f] −= Δt g_a (b[f − e_a] + b[f])/2`
-    /// with `b = Σ lift·ρ` at the cell centres; only components along which
-    /// gravity acts are touched, and wall faces of a closed box stay zero.
+    /// this is the notes' `dt*gravity*(cold − hot)` — each face getting the
+    /// mean of the two cells it separates ([`crate::forces::add_buoyancy`]).
     pub fn add_buoyancy(&mut self) {
         let p = self.params;
-        let d = *self.domain();
-        let [nx, ny, _] = d.dims;
-        let gases = &self.gases;
-        // `b` along the cell row from linear index `start`, into `out`: Σ
-        // lift·ρ folded from −0.0 in gas order, as `Iterator::sum`. Found
-        // per face row where it is used (each row twice, the second time
-        // from cache) rather than stored as a grid and read back.
-        let lift_row = |start: usize, out: &mut [f32]| {
-            out.fill(-0.0);
-            for g in gases {
-                for (b, r) in out
-                    .iter_mut()
-                    .zip(&g.density().as_slice()[start..start + nx])
-                {
-                    *b += g.lift * r;
-                }
-            }
-        };
-        for a in 0..3 {
-            let ga = p.dt * p.gravity[a];
-            if ga == 0.0 {
-                continue;
-            }
-            let (dims, n) = (self.velocity.face_dims(a), d.dims[a]);
-            // Linear index of cell (0, j, k).
-            let row = |j: usize, k: usize| (k * ny + j) * nx;
-            self.velocity
-                .slice_mut(a)
-                .par_chunks_mut(dims[0] * dims[1])
-                .enumerate()
-                .for_each_init(
-                    || (vec![0.0f32; nx], vec![0.0f32; nx]),
-                    |(lo, hi), (k, slab)| {
-                        for (j, out) in slab.chunks_exact_mut(dims[0]).enumerate() {
-                            // The cells below and above the faces of row
-                            // (j, k) along a, wrapped (periodic); a closed
-                            // box's wall faces read a clamped cell and are
-                            // zeroed below.
-                            let (mut below, mut above) = ([j, k], [j, k]);
-                            if a > 0 {
-                                let (b, c) = (&mut below[a - 1], &mut above[a - 1]);
-                                *b = if *b == 0 { n - 1 } else { *b - 1 };
-                                *c = (*c).min(n - 1);
-                                lift_row(row(below[0], below[1]), lo);
-                            }
-                            lift_row(row(above[0], above[1]), hi);
-                            if a > 0 {
-                                for ((u, b), c) in out.iter_mut().zip(&*lo).zip(&*hi) {
-                                    *u -= ga * 0.5 * (b + c);
-                                }
-                            } else {
-                                for (i, u) in out.iter_mut().enumerate() {
-                                    let b = hi[if i == 0 { n - 1 } else { i - 1 }];
-                                    *u -= ga * 0.5 * (b + hi[i.min(n - 1)]);
-                                }
-                            }
-                        }
-                    },
-                );
-        }
-        self.velocity.zero_walls();
+        let gases: Vec<_> = self.gases.iter().map(|g| (g.density(), g.lift)).collect();
+        forces::add_buoyancy(&mut self.velocity, p.dt, p.gravity, &gases);
     }
 
     /// Eq 6.3: make the velocity exactly (discretely) divergence-free with
@@ -633,69 +572,6 @@ impl Simulation {
         for _ in 1..b.passes() {
             self.pressure.project(&mut self.velocity);
             b.apply(&mut self.velocity);
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::field::ops;
-
-    /// `add_buoyancy` is eq 6.5 face by face: each face's `b` mean of the
-    /// cells below and above it along its axis (wrapped; clamped at a
-    /// closed box's upper wall, whose faces are then zeroed), with gravity
-    /// along all three axes and two gases — to the bit.
-    #[test]
-    fn buoyancy_is_the_face_mean_of_the_lift_to_the_bit() {
-        let d = Domain::new(Vec3::ZERO, 0.25, [6, 5, 4]).unwrap();
-        let params = StepParams {
-            dt: 0.1,
-            viscosity: 0.0,
-            gravity: Vec3::new(0.3, -0.7, 1.1),
-            backtrace: Backtrace::Rk2,
-        };
-        for kind in [BoxKind::Periodic, BoxKind::Closed] {
-            let gases = [1.0, -0.5].map(|lift| Gas::new("g", d, &ops::constant(0.0), lift));
-            let mut sim = Simulation::new(d, params, gases.to_vec()).with_box(kind);
-            for (n, gas) in sim.gases.iter_mut().enumerate() {
-                let rho = gas.model.gridded_mut().unwrap().as_slice_mut();
-                for (i, r) in rho.iter_mut().enumerate() {
-                    *r = ((i * 7 + n * 3) % 11) as f32 * 0.37 - 1.0;
-                }
-            }
-            let mut expect = sim.velocity.clone();
-            let cell = |c: [usize; 3]| {
-                let i = (c[2] * d.dims[1] + c[1]) * d.dims[0] + c[0];
-                sim.gases
-                    .iter()
-                    .fold(-0.0f32, |b, g| b + g.lift * g.density().as_slice()[i])
-            };
-            for a in 0..3 {
-                let ga = params.dt * params.gravity[a];
-                let fd = expect.face_dims(a);
-                let n = d.dims[a];
-                for (f, u) in expect.slice_mut(a).iter_mut().enumerate() {
-                    let at = [f % fd[0], f / fd[0] % fd[1], f / (fd[0] * fd[1])];
-                    let (mut below, mut above) = (at, at);
-                    below[a] = (at[a] + n - 1) % n;
-                    above[a] = at[a].min(n - 1);
-                    *u -= ga * 0.5 * (cell(below) + cell(above));
-                }
-            }
-            expect.zero_walls();
-            sim.add_buoyancy();
-            for a in 0..3 {
-                for (f, (u, e)) in sim
-                    .velocity
-                    .slice(a)
-                    .iter()
-                    .zip(expect.slice(a))
-                    .enumerate()
-                {
-                    assert_eq!(u.to_bits(), e.to_bits(), "{kind:?} axis {a} face {f}");
-                }
-            }
         }
     }
 }

@@ -1,4 +1,4 @@
-//! Empty-space skipping (`render::occupancy`): the gridless bound holds at
+//! Empty-space skipping (`density::occupancy`): the gridless bound holds at
 //! every point of positive density, it is tight enough to matter on 07-10's
 //! scene, and the march with it gives the same image to the bit.
 
@@ -7,9 +7,9 @@ use std::sync::Arc;
 use glam::Vec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg32;
+use smokelab::density::occupancy::{Occupancy, Support, BLOCK};
 use smokelab::domain::Domain;
 use smokelab::render::camera::Camera;
-use smokelab::render::occupancy::{Occupancy, Support, BLOCK};
 use smokelab::render::phase::Phase;
 use smokelab::render::{look, render, RenderSettings, Scene, Volume};
 use smokelab::scenario::sphere_wall::{

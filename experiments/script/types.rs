@@ -44,7 +44,7 @@ use smokelab::density::probe::cell_averages;
 use smokelab::domain::Domain;
 use smokelab::field::algebra::{self as fa, Matrix};
 use smokelab::field::{ops, Scalar, Vector, VectorField};
-use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid, Wrap};
+use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid};
 use smokelab::pressure::{PressurePrecision, PressureSolver};
 use smokelab::simulation::SOURCE_REFINE;
 
@@ -209,44 +209,11 @@ fn zip_faces(mut a: VectorCache, b: &FaceGrid, op: fn(f32, f32) -> f32) -> Falli
     Ok(a)
 }
 
-/// `k c` on the faces: component `a` of each face is `k_a` times the mean
-/// of the two cells it separates — the buoyancy of eq 6.5 exactly as
-/// [`smokelab::simulation::Simulation::add_buoyancy`] forms it
-/// (`Δt g_a · ½(b[f − e_a] + b[f])`), so `velocity + dt*gravity*(cold − hot)`
-/// is bit for bit the library's `u −= Δt g⃗ (hot − cold)`. In a closed box
-/// (a cache read clamped) the faces on the walls stay zero, as the library's.
+/// `k c` on the faces: the buoyancy of eq 6.5 as the library forms it
+/// ([`smokelab::forces::face_force`]), so `velocity + dt*gravity*(cold −
+/// hot)` is bit for bit the step's `u −= Δt g⃗ (hot − cold)`.
 pub fn force_on_faces(k: Vec3, c: &ScalarGrid) -> VectorCache {
-    let d = *c.domain();
-    let kind = match c.wrap() {
-        Wrap::Periodic => BoxKind::Periodic,
-        Wrap::Clamped => BoxKind::Closed,
-    };
-    let mut out = FaceGrid::zeros(d, kind);
-    let [nx, ny, _] = d.dims;
-    let cell = |c: [usize; 3]| (c[2] * ny + c[1]) * nx + c[0];
-    let data = c.as_slice();
-    for a in 0..3 {
-        if k[a] == 0.0 {
-            continue;
-        }
-        let (dims, n) = (out.face_dims(a), d.dims[a]);
-        out.slice_mut(a)
-            .par_chunks_mut(dims[0] * dims[1])
-            .enumerate()
-            .for_each(|(kk, slab)| {
-                for j in 0..dims[1] {
-                    for i in 0..dims[0] {
-                        let (mut below, mut above) = ([i, j, kk], [i, j, kk]);
-                        below[a] = if below[a] == 0 { n - 1 } else { below[a] - 1 };
-                        above[a] = above[a].min(n - 1);
-                        slab[j * dims[0] + i] =
-                            k[a] * 0.5 * (data[cell(below)] + data[cell(above)]);
-                    }
-                }
-            });
-    }
-    out.zero_walls();
-    VectorCache(Arc::new(out))
+    VectorCache(Arc::new(smokelab::forces::face_force(k, c)))
 }
 
 /// `velocity + s`: the injection of eq 6.4 when `s` is a field (its cell

@@ -490,78 +490,72 @@ fn sample_faces_mapped(
     }
 }
 
-/// Eq 8.8 at the cell centres of `vel`'s grid for a backward map held as its
-/// displacement `D = X − x` (three cell-centred components `src`):
-/// `dst_a(x) = (x_d − x)_a · scale + src_a(x_d)`, with `x_d` the departure
-/// point of the centre `x` (grid coordinates; `scale` the map's cell size
-/// for world units), moved by `stop` first when given (obstacles). The cell
-/// sweep of [`advect_fused`]: each row's departure points traced once
-/// and the three components sampled through one stencil — the same bits
-/// as [`departure_point`] and [`crate::grid::Stencil`] point by point.
-///
-/// # Panics
-/// If a component is on another domain than `vel`.
-pub(crate) fn advect_map(
-    vel: &FaceGrid,
-    (dt, backtrace): (f32, Backtrace),
-    src: [&ScalarGrid; 3],
-    dst: [&mut ScalarGrid; 3],
-    scale: f32,
-    stop: Option<&(dyn Fn(Vec3) -> Vec3 + Sync)>,
-) {
-    let d = *vel.domain();
-    for g in src
-        .iter()
-        .map(|g| g.domain())
-        .chain(dst.iter().map(|g| g.domain()))
-    {
-        assert_eq!(g, &d, "advect_map: component on another domain");
+/// The cell sweep of [`advect_fused`] row by row, for other sweeps over
+/// the velocity's cells (SELMA's map, eq 8.8): each row's departure points
+/// traced through the kernel's lanes ([`CellRows::trace`]) and cell-centred
+/// grids sampled there, one stencil per point ([`CellRows::sample`]) — the
+/// same bits as [`departure_point`] and [`crate::grid::Stencil`] point by
+/// point.
+pub(crate) struct CellRows<'a> {
+    isa: Isa,
+    vel: Vel<'a>,
+    dt_cells: f32,
+    backtrace: Backtrace,
+}
+
+/// One thread's rows for [`CellRows::trace`]: the kernel's and the traced
+/// points'.
+pub(crate) struct RowScratch {
+    kernel: Scratch,
+    points: [Vec<f32>; 3],
+}
+
+impl<'a> CellRows<'a> {
+    /// Backtraces through `vel` over `dt` (world time) by `backtrace`.
+    pub(crate) fn new(vel: &'a FaceGrid, (dt, backtrace): (f32, Backtrace)) -> Self {
+        Self {
+            isa: Isa::selected(),
+            vel: Vel::new(vel.sampler()),
+            dt_cells: dt / vel.domain().cell,
+            backtrace,
+        }
     }
-    let isa = Isa::selected();
-    let [nx, ny, _] = d.dims;
-    let slab = nx * ny;
-    let wraps = src.map(|g| g.wrap());
-    let data = src.map(|g| g.as_slice());
-    let [dx, dy, dz] = dst;
-    let v = Vel::new(vel.sampler());
-    let trace = (&v, dt / d.cell, backtrace);
-    (dx.as_slice_mut().par_chunks_mut(slab))
-        .zip(dy.as_slice_mut().par_chunks_mut(slab))
-        .zip(dz.as_slice_mut().par_chunks_mut(slab))
-        .enumerate()
-        .for_each_init(
-            || Scratch::new(nx),
-            |scratch, (k, ((ox, oy), oz))| {
-                for j in 0..ny {
-                    let mut p = std::mem::take(&mut scratch.points);
-                    let [px, py, pz] = p.each_mut().map(|l| &mut l[..nx]);
-                    kernel::cell_points(isa, trace, (j, k), [px, py, pz], scratch);
-                    if let Some(stop) = stop {
-                        let [px, py, pz] = p.each_mut().map(|l| &mut l[..nx]);
-                        for ((x, y), z) in px.iter_mut().zip(py).zip(pz) {
-                            let q = stop(Vec3::new(*x, *y, *z));
-                            (*x, *y, *z) = (q.x, q.y, q.z);
-                        }
-                    }
-                    let row = j * nx..(j + 1) * nx;
-                    let mut outs = [&mut ox[row.clone()], &mut oy[row.clone()], &mut oz[row]];
-                    let points = [&p[0][..nx], &p[1][..nx], &p[2][..nx]];
-                    if wraps.iter().all(|&w| w == wraps[0]) {
-                        kernel::sample(isa, &data, (d.dims, wraps[0]), points, &mut outs);
-                    } else {
-                        for ((data, wrap), out) in data.iter().zip(wraps).zip(outs.iter_mut()) {
-                            kernel::sample(isa, &[data], (d.dims, wrap), points, &mut [&mut **out]);
-                        }
-                    }
-                    for (a, out) in outs.into_iter().enumerate() {
-                        let c = [0.0, j as f32, k as f32][a];
-                        for (i, (o, &q)) in out.iter_mut().zip(&p[a][..nx]).enumerate() {
-                            let c = if a == 0 { i as f32 } else { c };
-                            *o += (q - c) * scale;
-                        }
-                    }
-                    scratch.points = p;
-                }
-            },
-        );
+
+    /// Rows for one thread.
+    pub(crate) fn scratch(&self) -> RowScratch {
+        let nx = self.vel.cells[0];
+        RowScratch {
+            kernel: Scratch::new(nx),
+            points: std::array::from_fn(|_| vec![0.0; nx]),
+        }
+    }
+
+    /// The departure points of the cell centres of row `(j, k)` (grid
+    /// coordinates, `[x, y, z]` lanes a row long), in `scratch`.
+    pub(crate) fn trace<'s>(
+        &self,
+        (j, k): (usize, usize),
+        scratch: &'s mut RowScratch,
+    ) -> [&'s mut [f32]; 3] {
+        let trace = (&self.vel, self.dt_cells, self.backtrace);
+        let points = scratch.points.each_mut().map(|l| &mut l[..]);
+        kernel::cell_points(self.isa, trace, (j, k), points, &mut scratch.kernel);
+        scratch.points.each_mut().map(|l| &mut l[..])
+    }
+
+    /// `datas` (grids on the velocity's cells, `wrap`ped) at the points `g`
+    /// into `outs` (one per grid): the stencil found once per point.
+    ///
+    /// # Panics
+    /// If the lanes and outputs differ in length, or `datas` and `outs` in
+    /// number.
+    pub(crate) fn sample(
+        &self,
+        datas: &[&[f32]],
+        wrap: Wrap,
+        g: [&[f32]; 3],
+        outs: &mut [&mut [f32]],
+    ) {
+        kernel::sample(self.isa, datas, (self.vel.cells, wrap), g, outs);
+    }
 }

@@ -196,7 +196,7 @@ impl GridlessField {
     }
 
     /// The stored steps, oldest first: velocity grid, Δt and backtrace
-    /// (what a bound on the chain's support needs, `render::occupancy`).
+    /// (what a bound on the chain's support needs, [`super::occupancy`]).
     pub fn history(&self) -> impl DoubleEndedIterator<Item = (&FaceGrid, f32, Backtrace)> {
         self.steps.iter().map(|s| (&*s.velocity, s.dt, s.backtrace))
     }

@@ -31,6 +31,7 @@
 pub mod cell_average;
 pub mod gridded;
 pub mod gridless;
+pub mod occupancy;
 pub mod probe;
 pub mod selma;
 

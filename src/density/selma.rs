@@ -20,8 +20,8 @@
 //! backtrace of the gridded and gridless paths. When the map grid is the
 //! velocity grid its nodes are the cell centres, and eq 8.8 is the gridded
 //! path's cell sweep of three densities plus the trace's offset
-//! ([`crate::advection::semi_lagrangian::advect_map`]: rows traced and sampled
-//! through the vector kernels); the density at the cell centres reads `X`
+//! ([`advect_map`]: rows traced and sampled through the vector kernels,
+//! [`CellRows`]); the density at the cell centres reads `X`
 //! off the nodes. A finer map grid traces its nodes [`NODE_GROUP`] points at
 //! a time through the gridless walk's vector kernels. `D` and `R` are read
 //! at arbitrary points through the sweeps' sampling kernels too
@@ -109,12 +109,12 @@ use rayon::prelude::*;
 
 use super::cell_average::{cell_points, cell_values, sub_points, sub_sum, CellSamples, SUB};
 use super::{BoxWrap, Buffer, DensityMode, StepInput};
-use crate::advection::departure_points;
-use crate::advection::semi_lagrangian::{advect_map, sample_points};
+use crate::advection::semi_lagrangian::{sample_points, CellRows};
+use crate::advection::{departure_points, Backtrace};
 use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{eval_supported, Bounds, Scalar, ScalarField};
-use crate::grid::{ScalarGrid, VectorGrid};
+use crate::grid::{FaceGrid, ScalarGrid, VectorGrid};
 
 /// Map nodes traced together: sixteen, the lanes of the AVX-512 walk kernel
 /// (two groups of the AVX2 kernel's eight), kept on the stack.
@@ -1055,6 +1055,77 @@ fn reset_lattice(lattice: &mut VectorGrid) {
             md.slab_centers(k, centres);
             out.copy_from_slice(centres);
         });
+}
+
+/// Eq 8.8 at the cell centres of `vel`'s grid for a backward map held as its
+/// displacement `D = X − x` (three cell-centred components `src`):
+/// `dst_a(x) = (x_d − x)_a · scale + src_a(x_d)`, with `x_d` the departure
+/// point of the centre `x` (grid coordinates; `scale` the map's cell size
+/// for world units), moved by `stop` first when given (obstacles). The cell
+/// sweep of the gridded path ([`CellRows`]): each row's departure points
+/// traced once and the three components sampled through one stencil — the
+/// same bits as [`crate::advection::departure_point`] and
+/// [`crate::grid::Stencil`] point by point.
+///
+/// # Panics
+/// If a component is on another domain than `vel`.
+fn advect_map(
+    vel: &FaceGrid,
+    trace: (f32, Backtrace),
+    src: [&ScalarGrid; 3],
+    dst: [&mut ScalarGrid; 3],
+    scale: f32,
+    stop: Option<&(dyn Fn(Vec3) -> Vec3 + Sync)>,
+) {
+    let d = *vel.domain();
+    for g in src
+        .iter()
+        .map(|g| g.domain())
+        .chain(dst.iter().map(|g| g.domain()))
+    {
+        assert_eq!(g, &d, "advect_map: component on another domain");
+    }
+    let [nx, ny, _] = d.dims;
+    let slab = nx * ny;
+    let wraps = src.map(|g| g.wrap());
+    let data = src.map(|g| g.as_slice());
+    let [dx, dy, dz] = dst;
+    let rows = CellRows::new(vel, trace);
+    (dx.as_slice_mut().par_chunks_mut(slab))
+        .zip(dy.as_slice_mut().par_chunks_mut(slab))
+        .zip(dz.as_slice_mut().par_chunks_mut(slab))
+        .enumerate()
+        .for_each_init(
+            || rows.scratch(),
+            |scratch, (k, ((ox, oy), oz))| {
+                for j in 0..ny {
+                    let [px, py, pz] = rows.trace((j, k), scratch);
+                    if let Some(stop) = stop {
+                        for ((x, y), z) in px.iter_mut().zip(&mut *py).zip(&mut *pz) {
+                            let q = stop(Vec3::new(*x, *y, *z));
+                            (*x, *y, *z) = (q.x, q.y, q.z);
+                        }
+                    }
+                    let row = j * nx..(j + 1) * nx;
+                    let mut outs = [&mut ox[row.clone()], &mut oy[row.clone()], &mut oz[row]];
+                    let p = [&*px, &*py, &*pz];
+                    if wraps.iter().all(|&w| w == wraps[0]) {
+                        rows.sample(&data, wraps[0], p, &mut outs);
+                    } else {
+                        for ((data, wrap), out) in data.iter().zip(wraps).zip(outs.iter_mut()) {
+                            rows.sample(&[data], wrap, p, &mut [&mut **out]);
+                        }
+                    }
+                    for (a, out) in outs.into_iter().enumerate() {
+                        let c = [0.0, j as f32, k as f32][a];
+                        for (i, (o, &q)) in out.iter_mut().zip(p[a]).enumerate() {
+                            let c = if a == 0 { i as f32 } else { c };
+                            *o += (q - c) * scale;
+                        }
+                    }
+                }
+            },
+        );
 }
 
 #[cfg(test)]

@@ -41,9 +41,9 @@ use rand_pcg::Pcg32;
 
 use super::camera::RayGen;
 use super::lights::LitLight;
-use super::occupancy::Occupancy;
 use super::phase::Phase;
 use super::{ray_box, Volume};
+use crate::density::occupancy::Occupancy;
 
 /// Sample points each live ray contributes to one batch.
 pub const CHUNK: usize = 16;

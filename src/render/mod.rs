@@ -11,7 +11,6 @@
 //! - [`phase`] — isotropic, Henyey–Greenstein (A.8), Fournier–Forand (A.9–A.12);
 //! - [`lights`] — point lights and their transmissivity grids (A.4–A.7);
 //! - [`march`] — the ray march (A.22–A.29);
-//! - [`occupancy`] — where a density may be positive (empty-space skipping);
 //! - [`output`] — EXR (linear, premultiplied) and sRGB PNG previews;
 //! - [`look`] — the default look of smoke renders (colours, light, exposure).
 //!
@@ -44,7 +43,6 @@ pub mod camera;
 pub mod lights;
 pub mod look;
 pub mod march;
-pub mod occupancy;
 pub mod output;
 pub mod phase;
 
@@ -56,13 +54,13 @@ use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::density::occupancy::Occupancy;
 use crate::domain::Domain;
 use crate::error::InputError;
 use crate::field::Scalar;
 use camera::Camera;
 use lights::{LitLight, PointLight};
 use march::{Marcher, RowScratch};
-use occupancy::Occupancy;
 use phase::Phase;
 
 /// One density field and how it looks.

@@ -38,12 +38,12 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use crate::advection::{interpolate_scalar, Backtrace, Departures};
+use crate::density::occupancy::{self, Occupancy, Support};
 use crate::density::{total_bytes, Buffer, GridlessField, MapField, Selma, StepInput};
 use crate::domain::Domain;
 use crate::error::{check_non_negative, check_positive, InputError};
 use crate::field::{memo, ops, Scalar, ScalarField, VectorField};
 use crate::grid::{FaceGrid, ScalarGrid};
-use crate::render::occupancy::{self, Occupancy, Support};
 use crate::scenario::hot_cold::HotColdConfig;
 use crate::scenario::{Scenario, SolverConfig};
 
@@ -344,7 +344,7 @@ pub struct AdvectedWall {
     pub rows: Vec<Scalar>,
     /// Buffers held by the representation.
     pub buffers: Vec<Buffer>,
-    /// Where any row may be positive (`render::occupancy`), when the rows
+    /// Where any row may be positive (`density::occupancy`), when the rows
     /// are known grids, composed or not (`None`: the analytic wall, SELMA).
     pub occupancy: Option<Arc<Occupancy>>,
     /// Backward steps walked by the gridless chain so far (zero without one).

@@ -5,7 +5,7 @@
 //! *known* to be there need not be evaluated. An [`Occupancy`] is a coarse
 //! grid of blocks of [`BLOCK`]³ velocity cells, each flagged when the density
 //! may be positive somewhere in its closed box; where it is clear the density
-//! is `≤ 0` everywhere, and [`march`](super::march) does not query it.
+//! is `≤ 0` everywhere, and the renderer's march ([`crate::render::march`]) does not query it.
 //!
 //! # The bound of a gridless chain (eq 7.4)
 //!
@@ -52,8 +52,8 @@
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use super::GridlessField;
 use crate::advection::Backtrace;
-use crate::density::GridlessField;
 use crate::domain::Domain;
 use crate::grid::{BoxKind, FaceGrid, ScalarGrid, Wrap};
 
