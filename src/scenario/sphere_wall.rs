@@ -6,7 +6,8 @@
 //! - **The flow** ([`FlowHistory`]): a gridded hot/cold run (§6.1.1) that
 //!   knows nothing of the wall. It runs for `warmup` simulated time so the
 //!   plumes are moving, then its velocity grid at the start of each of the
-//!   next `frames` frames (`steps_per_frame` solver steps each) is kept in memory (shared, [`Arc`]) and replayed.
+//!   next `frames` frames (`steps_per_frame` solver steps each) is kept in
+//!   memory (shared, [`Arc`]) and replayed.
 //! - **The wall** ([`Wall`]): `rows × cols` balls of density 1 with a smooth
 //!   edge, in the plane `z = L/2` through both plumes; each row is its own
 //!   density (and its own volume and colour in the render).
