@@ -9,22 +9,22 @@
 //! cell (eqs A.24–A.26, sub-steps at their midpoints), beside the fine
 //! march of a tenth of a cell. The notes: "a substantial loss of density due
 //! to numerical dissipation", and the wall "looks soft or diffused". Measured
-//! at 50³ × 60 frames: the wall is soft everywhere (sharpness 3.32 grey
-//! levels², the least of 07-4, 07-5, 07-7), but mass is gained, not lost
-//! (`mass_kept` 1.021 = sampling the balls at the cell centres +1.4 % × a
-//! semi-Lagrangian gain of +0.6 %: resampling is not conservative) and the
-//! mean row peak keeps 97.6 % — the notes' loss is not reproduced. For the
-//! gridded density the cell march is close to the fine one (error 0.36
-//! grey levels rms, 0.32 of it coherent): the baseline of 07-6's aliasing.
+//! at 50³ × 60 frames: the wall is soft
+//! everywhere (sharpness 5.00 grey levels², the least of 07-4, 07-5, 07-7)
+//! and the mean row peak keeps 56 % — the notes' loss of density, as a loss
+//! of peak; the mass is gained, not lost (`mass_kept` 1.24: resampling is
+//! not conservative). For the gridded density the cell march is close to
+//! the fine one (coherent error 0.22 grey levels): the baseline of 07-6's
+//! aliasing.
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
-//! flow, 60 frames of Δt 0.05 after 1.5 s of warm-up, 640×480 renders; the
-//! group 07-4 … 07-7 took 8 minutes at the regeneration on 2 cores shared
-//! with other work (load ≈ 10), most of it the two fine marches.
+//! flow with the gases passing each other, 60 frames of Δt 0.1 (two solver
+//! steps each) after 4.5 s of warm-up, 640×480 renders
+//! ([`crate::sphere_wall_series::figure_config`] says why this flow); 07-4,
+//! 07-5, 07-6 took 29, 14, 83 s on 2 cores at a load of 2.
 //! `--smoke`: 24³, 12 frames, 128×96 ([`crate::sphere_wall_series::figure_config`]).
 //!
-//! Run: `smokelab experiment 07-4` (77 s at the regeneration, on 2 cores shared
-//! with other work at a load of 10; most of it the fine march).
+//! Run: `smokelab experiment 07-4` (29 s; most of it the fine march).
 //!
 //! Writes `results/07-4/`: `figure.png` (rows: fixed step cell, the
 //! figure; fixed step cell/10; each full frame beside its middle half 2×,

@@ -6,17 +6,18 @@
 //! of frame `F − 1` composed with the last recorded velocity's backtrace
 //! and never resampled — shown above 07-4's wall, both with the fixed cell
 //! march. The notes: "the edges of filaments have been subtly sharpened".
-//! Measured at 50³ × 60 frames: sharpness 3.37 against 07-4's 3.32 grey
-//! levels² (+1.5 %), and mean row peak kept 0.977 against 0.976 — sharper
-//! by the measure, but too subtly to see side by side, even in the 2× crops.
+//! Measured at 50³ × 60 frames: sharpness 5.07 against 07-4's 5.00 grey
+//! levels² (+1.3 %) — sharper by the measure, subtly, as captioned; too
+//! subtly to see side by side, even in the 2× crops.
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
-//! flow, 60 frames of Δt 0.05 after 1.5 s of warm-up, 640×480 renders; the
-//! group 07-4 … 07-7 took 8 minutes at the regeneration on 2 cores shared
-//! with other work (load ≈ 10), most of it the two fine marches.
+//! flow with the gases passing each other, 60 frames of Δt 0.1 (two solver
+//! steps each) after 4.5 s of warm-up, 640×480 renders
+//! ([`crate::sphere_wall_series::figure_config`] says why this flow); 07-4,
+//! 07-5, 07-6 took 29, 14, 83 s on 2 cores at a load of 2.
 //! `--smoke`: 24³, 12 frames, 128×96 ([`crate::sphere_wall_series::figure_config`]).
 //!
-//! Run: `smokelab experiment 07-5` (44 s at the regeneration, 2 shared cores).
+//! Run: `smokelab experiment 07-5` (14 s).
 //!
 //! Writes `results/07-5/`: `figure.png` (rows: 59 gridded + 1 gridless,
 //! the figure; 60 gridded, 07-4's; full frames beside their middle halves

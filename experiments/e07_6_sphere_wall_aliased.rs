@@ -13,22 +13,28 @@
 //!
 //! The aliasing is measured apart from noise by how the error against the
 //! fine march is spread (`coherent_error`, module doc of
-//! [`smokelab::metrics::picture`]). Measured at 50³ × 60 frames: the fixed
-//! march's error is 0.40 grey levels rms, 77 % of its energy coherent
-//! (0.35 coherent); the jittered march's is 1.71 rms, 4 % coherent (noise).
-//! But the gridded wall of 07-4 under the same march already has 0.32
-//! coherent: the ten gridless frames add 12 %, and the sharpness rises 17 %
-//! over 07-4 (3.89) — the detail does not get finer than the march step,
-//! and the "significant aliasing" is not reproduced with this flow.
+//! [`smokelab::metrics::picture`]). The flow is the passing hot/cold run
+//! with Δt 0.1 per frame ([`crate::sphere_wall_series::figure_config`]);
+//! with the former head-on flow at Δt 0.05 the ten gridless frames added
+//! only 12 % coherent error over 07-4's gridded wall (0.35 against 0.32
+//! grey levels): they did not compress the detail below the march step.
+//! Measured now at 50³ × 60 frames (`smokelab experiment 07-4`, `07-6`):
+//! the fixed march's error is 0.57
+//! grey levels rms, 82 % of its energy coherent (0.52 coherent), 2.3×
+//! the gridded 07-4's 0.22 under the same march and 2.4× the jittered
+//! march's 0.22 (its error noise). The aliasing is measured clearly but is
+//! still small in grey levels: in the figure it shows as faint streaks
+//! along the filaments of the crops, not as the notes' "significant"
+//! aliasing.
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
-//! flow, 60 frames of Δt 0.05 after 1.5 s of warm-up, 640×480 renders; the
-//! group 07-4 … 07-7 took 8 minutes at the regeneration on 2 cores shared
-//! with other work (load ≈ 10), most of it the two fine marches.
+//! flow with the gases passing each other, 60 frames of Δt 0.1 (two solver
+//! steps each) after 4.5 s of warm-up, 640×480 renders
+//! ([`crate::sphere_wall_series::figure_config`] says why this flow); 07-4,
+//! 07-5, 07-6 took 29, 14, 83 s on 2 cores at a load of 2.
 //! `--smoke`: 24³, 12 frames, 128×96 ([`crate::sphere_wall_series::figure_config`]).
 //!
-//! Run: `smokelab experiment 07-6` (204 s at the regeneration, 2 shared
-//! cores; most of it the fine march).
+//! Run: `smokelab experiment 07-6` (83 s; most of it the fine march).
 //!
 //! Writes `results/07-6/`: `figure.png` (rows: fixed step cell, the figure;
 //! jittered step cell; fixed step cell/10; full frames beside their middle

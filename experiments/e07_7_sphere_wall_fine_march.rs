@@ -4,18 +4,18 @@
 //! frames gridded, the last `k = F/6` gridless by eqs 7.1–7.4), rendered
 //! with a fixed march step of a tenth of a velocity cell, above 07-6's
 //! march of one cell: "the fine detail in the density field is now
-//! resolved". Measured at 50³ × 60 frames: sharpness 3.85 grey levels²,
-//! 16 % above 07-4's 3.32 and 14 % above 07-5's 3.37; the cell march of the
-//! same holding differs from it by 0.40 grey levels rms (see 07-6).
+//! resolved". Measured at 50³ × 60 frames: sharpness 5.86 grey levels²,
+//! 17 % above 07-4's 5.00 and 16 % above 07-5's 5.07; the cell march of the
+//! same holding differs from it by 0.57 grey levels rms (see 07-6).
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
-//! flow, 60 frames of Δt 0.05 after 1.5 s of warm-up, 640×480 renders; the
-//! group 07-4 … 07-7 took 8 minutes at the regeneration on 2 cores shared
-//! with other work (load ≈ 10), most of it the two fine marches.
+//! flow with the gases passing each other, 60 frames of Δt 0.1 (two solver
+//! steps each) after 4.5 s of warm-up, 640×480 renders
+//! ([`crate::sphere_wall_series::figure_config`] says why this flow); 07-4,
+//! 07-5, 07-6 took 29, 14, 83 s on 2 cores at a load of 2.
 //! `--smoke`: 24³, 12 frames, 128×96 ([`crate::sphere_wall_series::figure_config`]).
 //!
-//! Run: `smokelab experiment 07-7` (163 s at the regeneration, 2 shared
-//! cores; most of it the fine march).
+//! Run: `smokelab experiment 07-7` (about 70 s; most of it the fine march).
 //!
 //! Writes `results/07-7/`: `figure.png` (rows: fixed step cell/10, the
 //! figure; fixed step cell; full frames beside their middle halves 2×,

@@ -39,13 +39,15 @@ fn pictures_show_coloured_rows_and_record_their_holding() {
     // id → (flow cells per axis, gridded frames, gridless frames, SELMA map
     // cells, march step in cells⁻¹, mass kept, peak kept), the last two as
     // measured at smoke size (24³: a ball's radius 0.42 is about a cell, so
-    // sampling them at the cell centres gains 17 %, `mass_sampled` 1.1734).
+    // sampling them at the cell centres gains 17 %, `mass_sampled` 1.1734;
+    // 07-4 … 07-7 in the passing flow at Δt 0.5 per frame, whose resampling
+    // gains mass and loses the peak).
     // The first panel of each is its own figure.
     let cases = [
-        ("07-4", 24.0, 12.0, 0.0, 0.0, 1.0, 1.2098, 0.682),
-        ("07-5", 24.0, 11.0, 1.0, 0.0, 1.0, 1.2096, 0.695),
-        ("07-6", 24.0, 10.0, 2.0, 0.0, 1.0, 1.2050, 0.720),
-        ("07-7", 24.0, 10.0, 2.0, 0.0, 10.0, 1.2050, 0.720),
+        ("07-4", 24.0, 12.0, 0.0, 0.0, 1.0, 1.4144, 0.236),
+        ("07-5", 24.0, 11.0, 1.0, 0.0, 1.0, 1.3788, 0.276),
+        ("07-6", 24.0, 10.0, 2.0, 0.0, 1.0, 1.3514, 0.294),
+        ("07-7", 24.0, 10.0, 2.0, 0.0, 10.0, 1.3514, 0.294),
         ("07-8", 16.0, 0.0, 6.0, 0.0, 10.0, 0.9212, 1.0),
         ("08-1", 16.0, 0.0, 0.0, 16.0, 10.0, 1.0101, 1.0),
     ];
@@ -87,14 +89,14 @@ fn pictures_show_coloured_rows_and_record_their_holding() {
         assert!((peak - peak_kept).abs() < 0.01, "{id}: peak kept {peak}");
         // The gridded part's mass factors: sampled at the cell centres
         // (measured 1.1734) and semi-Lagrangian advection (measured
-        // 1.0180 over 12 frames, 1.0186 over 11, 1.0182 over 10).
+        // 1.1901 over 12 frames, 1.1647 over 11, 1.1416 over 10).
         if gridded > 0.0 {
             let sampled = num(row, "mass_sampled");
             let advected = num(row, "mass_advected");
             let measured = match gridded as usize {
-                12 => 1.0180,
-                11 => 1.0186,
-                _ => 1.0182,
+                12 => 1.1901,
+                11 => 1.1647,
+                _ => 1.1416,
             };
             assert!((sampled - 1.1734).abs() < 0.001, "{id}: sampled {sampled}");
             assert!(
@@ -122,17 +124,18 @@ fn pictures_show_coloured_rows_and_record_their_holding() {
 }
 
 /// The figures 07-4 … 07-7 show what the notes' captions say, measured at
-/// smoke size (24³ flow, 12 frames, the last 2 gridless in 07-6/07-7,
-/// 128×96 renders; 16³ with 6 frames cannot tell 07-6's holding from
-/// 07-5's, both one gridless frame):
+/// smoke size (24³ passing flow, 12 frames of Δt 0.5, the last 2 gridless
+/// in 07-6/07-7, 128×96 renders; 16³ with 6 frames cannot tell 07-6's
+/// holding from 07-5's, both one gridless frame):
 /// - fig 7.5 "subtly sharpened", fig 7.7 "resolved": the gradient energy
 ///   of each figure (its first panel) orders 07-4 < 07-5 < 07-7 (measured
-///   41.94, 44.50, 47.58 grey levels²: +6.1 %, +6.9 %);
+///   71.02, 75.12, 80.25 grey levels²: +5.8 %, +6.8 %; 07-7 13 % above
+///   07-4);
 /// - fig 7.6, the fixed-step march's error against the fine march is a
-///   pattern, the jittered march's is noise: coherent share 0.78 against
-///   0.057, with the jittered error 3.5× larger in rms;
-/// - the ten gridless frames add coherent error at the same march: 07-6's
-///   0.849 grey levels against the gridded 07-4's 0.779 (×1.09).
+///   pattern (coherent share measured 0.64);
+/// - the gridless frames make that pattern: 07-6's coherent error 0.758
+///   grey levels against the gridded 07-4's 0.481 under the same march
+///   (×1.58) and the jittered march's 0.525 (×1.44, its error noise).
 #[test]
 fn chapter_7_figures_sharpen_and_alias_as_captioned() {
     let dir = tempfile::tempdir().unwrap();
@@ -154,8 +157,8 @@ fn chapter_7_figures_sharpen_and_alias_as_captioned() {
     let sharp = |t: &[std::collections::HashMap<String, String>]| num(&t[0], "sharpness");
     let (s4, s5, s7) = (sharp(&t4), sharp(&t5), sharp(&t7));
     assert!(
-        1.03 * s4 < s5 && 1.03 * s5 < s7,
-        "sharpness 07-4 {s4}, 07-5 {s5}, 07-7 {s7}: not increasing by 3 % each"
+        1.03 * s4 < s5 && 1.03 * s5 < s7 && 1.1 * s4 < s7,
+        "sharpness 07-4 {s4}, 07-5 {s5}, 07-7 {s7}: not increasing by 3 % each, 10 % in all"
     );
     // 07-6: fixed step cell, jittered step cell, fixed step cell/10.
     let (fixed, jittered) = (&t6[0], &t6[1]);
@@ -165,7 +168,7 @@ fn chapter_7_figures_sharpen_and_alias_as_captioned() {
     );
     let share = |r: &std::collections::HashMap<String, String>| num(r, "coherent_share");
     assert!(
-        share(fixed) > 0.7,
+        share(fixed) > 0.55,
         "fixed march error not coherent: {}",
         share(fixed)
     );
@@ -176,5 +179,7 @@ fn chapter_7_figures_sharpen_and_alias_as_captioned() {
     );
     assert!(num(jittered, "error_rms") > 3.0 * num(fixed, "error_rms"));
     let (c4, c6) = (num(&t4[0], "coherent_error"), num(fixed, "coherent_error"));
-    assert!(c6 > 1.05 * c4, "coherent error 07-6 {c6} vs 07-4 {c4}");
+    let cj = num(jittered, "coherent_error");
+    assert!(c6 > 1.3 * c4, "coherent error 07-6 {c6} vs 07-4 {c4}");
+    assert!(c6 > 1.2 * cj, "coherent error 07-6 {c6} vs jittered {cj}");
 }

@@ -6,7 +6,8 @@
 //! - **The flow** ([`FlowHistory`]): a gridded hot/cold run (§6.1.1) that
 //!   knows nothing of the wall. It runs for `warmup` simulated time so the
 //!   plumes are moving, then its velocity grid at the start of each of the
-//!   next `frames` steps is kept in memory (shared, [`Arc`]) and replayed.
+//!   next `frames` frames (`steps_per_frame` solver steps each) is kept in
+//!   memory (shared, [`Arc`]) and replayed.
 //! - **The wall** ([`Wall`]): `rows × cols` balls of density 1 with a smooth
 //!   edge, in the plane `z = L/2` through both plumes; each row is its own
 //!   density (and its own volume and colour in the render).
@@ -61,6 +62,14 @@ pub struct SphereWallConfig {
     pub duration: f32,
     /// Simulated time the flow runs before the wall is placed.
     pub warmup: f32,
+    /// Solver steps per recorded frame, each of Δt / `steps_per_frame`: a
+    /// frame is a film frame, the flow's solver may take several steps in
+    /// it; the wall moves once per frame, by the velocity at its start.
+    pub steps_per_frame: usize,
+    /// Horizontal offset of the hot/cold sources along x, hot by `+offset`
+    /// and cold by `−offset` ([`HotColdConfig::offset`], in the wall's
+    /// plane): 0 the head-on flow, positive gases that pass each other.
+    pub offset: f32,
     /// Rows of balls (one colour each).
     pub rows: usize,
     /// Balls per row.
@@ -81,6 +90,8 @@ impl Default for SphereWallConfig {
             frames: 60,
             duration: 3.0,
             warmup: 1.5,
+            steps_per_frame: 1,
+            offset: 0.0,
             rows: 6,
             cols: 8,
             radius: 0.42,
@@ -108,10 +119,10 @@ impl SphereWallConfig {
         positive("spacing", self.spacing)?;
         check_non_negative("warmup", self.warmup)
             .map_err(|e| InputError::new(format!("sphere wall: {e}")))?;
-        if self.frames == 0 || self.rows == 0 || self.cols == 0 {
+        if self.frames == 0 || self.rows == 0 || self.cols == 0 || self.steps_per_frame == 0 {
             return Err(InputError::new(format!(
-                "sphere wall: frames {}, rows {}, cols {}: each must be at least 1",
-                self.frames, self.rows, self.cols
+                "sphere wall: frames {}, rows {}, cols {}, steps per frame {}: each must be at least 1",
+                self.frames, self.rows, self.cols, self.steps_per_frame
             )));
         }
         if self.spacing < 2.0 * self.radius + self.edge {
@@ -133,23 +144,31 @@ impl SphereWallConfig {
     }
 
     /// The hot/cold run that makes the flow: gridded, the same box and
-    /// resolution, warmup plus the wall's frames.
+    /// resolution, its sources moved by ±`offset` along x, warmup plus
+    /// the wall's frames at `steps_per_frame` solver steps each.
     pub fn flow_config(&self) -> HotColdConfig {
         HotColdConfig {
             solver: SolverConfig {
                 res: self.res,
                 size: self.size,
-                dt: self.dt(),
-                frames: self.warmup_steps() + self.frames,
+                dt: self.solver_dt(),
+                frames: self.warmup_steps() + self.frames * self.steps_per_frame,
                 save_every: 0,
                 ..SolverConfig::default()
             },
-            ..HotColdConfig::head_on()
+            offset: self.offset,
+            ..HotColdConfig::default()
         }
     }
 
+    /// Solver steps before the first frame.
     fn warmup_steps(&self) -> usize {
-        (self.warmup / self.dt()).round() as usize
+        (self.warmup / self.solver_dt()).round() as usize
+    }
+
+    /// The solver's Δt: the frame's over its steps.
+    fn solver_dt(&self) -> f32 {
+        self.dt() / self.steps_per_frame.max(1) as f32
     }
 }
 
@@ -177,11 +196,13 @@ impl FlowHistory {
         let mut velocities = Vec::with_capacity(config.frames);
         for _ in 0..config.frames {
             velocities.push(Arc::new(sim.velocity.clone()));
-            sim.step();
+            for _ in 0..config.steps_per_frame {
+                sim.step();
+            }
         }
         Ok(Self {
             domain: *sim.domain(),
-            dt: flow.solver.dt,
+            dt: config.dt(),
             backtrace: flow.solver.backtrace,
             velocities,
         })
