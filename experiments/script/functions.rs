@@ -48,6 +48,7 @@ use smokelab::field::{ops, Scalar, Vector, VectorField};
 use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid};
 use smokelab::model::{cloud, cut, shape, warp};
 use smokelab::noise::perlin::Perlin;
+use smokelab::pressure::PressurePrecision;
 
 use super::types::{Fallible, MatrixF, Region, ScalarCache, ScalarF, VectorCache, VectorF, V3};
 
@@ -211,8 +212,9 @@ fn count(what: &str, n: INT) -> Fallible<usize> {
 }
 
 /// `domain(res, size, box)`: the cube `[0, size]³` of `res`³ cells, its
-/// faces `"periodic"` or `"closed"` (`smokelab run --box`).
-fn region(res: INT, size: FLOAT, kind: &str) -> Fallible<Region> {
+/// faces `"periodic"` or `"closed"` (`smokelab run --box`), its pressure
+/// solved in `precision` (`smokelab script --pressure-precision`).
+fn region(res: INT, size: FLOAT, kind: &str, precision: PressurePrecision) -> Fallible<Region> {
     let res = usize::try_from(res).map_err(|_| format!("domain: res is {res}"))?;
     let d = Domain::cube(res, size as f32).map_err(|e| e.to_string())?;
     let kind = match kind {
@@ -224,7 +226,7 @@ fn region(res: INT, size: FLOAT, kind: &str) -> Fallible<Region> {
             )
         }
     };
-    Ok(Region::new(d, kind))
+    Ok(Region::new(d, kind, precision))
 }
 
 /// Refuse a velocity that is not on `region`'s grid and box.
@@ -235,13 +237,16 @@ fn on_region(what: &str, v: &VectorCache, region: &Region) -> Fallible<()> {
     Ok(())
 }
 
-/// Register the notes' functions.
-pub fn register(engine: &mut Engine) {
+/// Register the notes' functions; every `domain` solves its pressure in
+/// `precision`.
+pub fn register(engine: &mut Engine, precision: PressurePrecision) {
     let sf = ScalarF::new;
-    engine.register_fn("domain", |res: INT, size: FLOAT| {
-        region(res, size, "periodic")
+    engine.register_fn("domain", move |res: INT, size: FLOAT| {
+        region(res, size, "periodic", precision)
     });
-    engine.register_fn("domain", region);
+    engine.register_fn("domain", move |res: INT, size: FLOAT, kind: &str| {
+        region(res, size, kind, precision)
+    });
     engine.register_fn("vector", |x: FLOAT, y: FLOAT, z: FLOAT| {
         V3(Vec3::new(x as f32, y as f32, z as f32))
     });

@@ -46,6 +46,7 @@ use rhai::{Dynamic, Engine, EvalAltResult, Position, Scope, FLOAT, INT};
 use serde::Serialize;
 use smokelab::error::InputError;
 use smokelab::io::{self, manifest::Manifest};
+use smokelab::pressure::PressurePrecision;
 
 use output::Recorder;
 
@@ -64,12 +65,17 @@ pub struct ScriptArgs {
     /// metrics, manifest); without it such a folder is refused.
     #[arg(long)]
     pub overwrite: bool,
+    /// Transforms of every `domain`'s pressure solve (`fftdivfree`, `diffuse`): f32 (default) or f64, as `smokelab run --pressure-precision`.
+    #[arg(long, value_enum, default_value_t)]
+    pub pressure_precision: PressurePrecision,
 }
 
 /// What the manifest records as the run's configuration.
 #[derive(Serialize)]
 struct ScriptConfig {
     script: String,
+    /// The transforms of every `domain`'s pressure solve.
+    pressure_precision: PressurePrecision,
     /// Every `param` the script read, as it resolved.
     params: BTreeMap<String, String>,
 }
@@ -160,10 +166,14 @@ fn located(file: &str, pos: Position, message: impl std::fmt::Display) -> InputE
 }
 
 /// The engine with every type, function and writer registered.
-fn engine(recorder: &Rc<RefCell<Recorder>>, params: &Rc<RefCell<Params>>) -> Engine {
+fn engine(
+    recorder: &Rc<RefCell<Recorder>>,
+    params: &Rc<RefCell<Params>>,
+    precision: PressurePrecision,
+) -> Engine {
     let mut engine = Engine::new();
     types::register(&mut engine);
-    functions::register(&mut engine);
+    functions::register(&mut engine, precision);
     map::register(&mut engine);
     output::register(&mut engine, recorder);
     let p = params.clone();
@@ -199,7 +209,7 @@ pub fn run(args: &ScriptArgs) -> Result<()> {
     earlier.remove()?;
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let recorder = Rc::new(RefCell::new(Recorder::new(out.clone())));
-    let engine = engine(&recorder, &params);
+    let engine = engine(&recorder, &params, args.pressure_precision);
     let ast = engine
         .compile(&source)
         .map_err(|e| located(&file, e.1, &e.0))?;
@@ -207,6 +217,7 @@ pub fn run(args: &ScriptArgs) -> Result<()> {
     let result = engine.run_ast_with_scope(&mut Scope::new(), &ast);
     let config = ScriptConfig {
         script: file.clone(),
+        pressure_precision: args.pressure_precision,
         params: params.borrow().read.clone(),
     };
     let wall = start.elapsed().as_secs_f64();

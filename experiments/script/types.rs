@@ -125,17 +125,15 @@ pub struct Region {
 }
 
 impl Region {
-    /// A region of `kind` over `domain`, tracing with RK2 and solving the
-    /// pressure in f32 (the run's defaults).
-    pub fn new(domain: Domain, kind: BoxKind) -> Self {
+    /// A region of `kind` over `domain`, tracing with RK2 (the run's
+    /// default) and solving the pressure in `precision`.
+    pub fn new(domain: Domain, kind: BoxKind, precision: PressurePrecision) -> Self {
         Self {
             domain,
             kind,
             backtrace: Backtrace::default(),
             solver: Rc::new(RefCell::new(PressureSolver::with_precision(
-                domain,
-                kind,
-                PressurePrecision::default(),
+                domain, kind, precision,
             ))),
         }
     }
