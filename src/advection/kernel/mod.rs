@@ -32,6 +32,9 @@ use crate::simd::Isa;
 #[macro_use]
 mod body;
 #[cfg(target_arch = "x86_64")]
+#[macro_use]
+mod windows;
+#[cfg(target_arch = "x86_64")]
 mod avx2;
 #[cfg(target_arch = "x86_64")]
 mod avx512;
