@@ -7,7 +7,8 @@ use smokelab::field::ops;
 use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid};
 
 mod common;
-use common::{assert_order, swirl};
+use common::order::assert_order;
+use common::swirl;
 
 #[test]
 fn constant_field_stays_constant() {

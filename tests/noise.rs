@@ -24,7 +24,7 @@ use smokelab::noise::spectral::{SpectralNoise, SpectralParams, SpectralTile, Spe
 use smokelab::noise::{NoiseKind, NoiseSpec, Solenoidal};
 
 mod common;
-use common::assert_order;
+use common::order::assert_order;
 
 /// Gauss–Legendre nodes and weights on [−1, 1] (Newton on P_n).
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {

@@ -11,7 +11,8 @@ use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
 
 mod common;
-use common::{assert_order, swirl};
+use common::order::assert_order;
+use common::swirl;
 
 /// A smooth periodic profile on the unit square (constant along z).
 struct Smooth(Vec3);

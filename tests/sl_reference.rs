@@ -9,9 +9,10 @@
 //! both paths. The face sweep (its vector kernels included) must give the
 //! reference's bits; the departure points agree to 1e-6 of the largest speed.
 //!
-//! Each test runs on a box whose rows are shorter than sixteen (the AVX2
-//! kernels, eight lanes) and one whose rows are longer (on a CPU with
-//! AVX-512F, the sixteen-lane kernels: the velocities at faces and cells by
+//! Each test runs on every kernel width the CPU has (`common::on_every_isa`:
+//! scalar, then NEON or AVX2 and AVX-512F), on a box whose rows are shorter
+//! than sixteen (the AVX2 kernels, eight lanes) and one whose rows are
+//! longer (the sixteen-lane kernels: the velocities at faces and cells by
 //! vector loads in every row, those at the box's faces from wrapped or
 //! clamped neighbour rows; stencils near them wrapped or clamped in the
 //! lanes).
@@ -22,6 +23,9 @@ use smokelab::advection::{
 };
 use smokelab::domain::Domain;
 use smokelab::grid::{BoxKind, FaceGrid, ScalarGrid, Stencil};
+
+mod common;
+use common::on_every_isa;
 
 /// A rough deterministic velocity: a hash of the face index, in `[−s, s]`.
 fn rough(d: Domain, kind: BoxKind, s: f32) -> FaceGrid {
@@ -109,65 +113,70 @@ fn boxes(dims: [[usize; 3]; 2]) -> impl Iterator<Item = (Domain, (BoxKind, f32))
 
 #[test]
 fn face_advection_matches_the_general_stencil() {
-    for (d, (kind, speed)) in boxes([[13, 9, 8], [37, 9, 8]]) {
-        let vel = rough(d, kind, speed);
-        let src = rough(d, kind, 1.0);
-        for bt in Backtrace::ALL {
-            let mut dst = FaceGrid::zeros(d, kind);
-            advect_faces(&src, &vel, 0.7, bt, &mut dst);
-            for a in 0..3 {
-                let [mx, my, mz] = vel.face_dims(a);
-                let got = dst.slice(a);
-                let mut n = 0;
-                for k in 0..mz {
-                    for j in 0..my {
-                        for i in 0..mx {
-                            let mut c = Vec3::new(i as f32, j as f32, k as f32);
-                            c[a] -= 0.5;
-                            let u0 = at_face_ref(&vel, a, [i, j, k]);
-                            let g = departure_ref(&vel, c, u0, 0.7, bt);
-                            let wall = kind == BoxKind::Closed
-                                && ([i, j, k][a] == 0 || [i, j, k][a] == d.dims[a]);
-                            let want = if wall {
-                                0.0
-                            } else {
-                                component_ref(&vel, a, src.slice(a), g)
-                            };
-                            assert!(
-                                got[n].to_bits() == want.to_bits(),
-                                "{kind} {speed} {bt:?} component {a} face {:?}: {} vs {want}",
-                                [i, j, k],
-                                got[n]
-                            );
-                            n += 1;
+    on_every_isa(|isa| {
+        for (d, (kind, speed)) in boxes([[13, 9, 8], [37, 9, 8]]) {
+            let vel = rough(d, kind, speed);
+            let src = rough(d, kind, 1.0);
+            for bt in Backtrace::ALL {
+                let mut dst = FaceGrid::zeros(d, kind);
+                advect_faces(&src, &vel, 0.7, bt, &mut dst);
+                for a in 0..3 {
+                    let [mx, my, mz] = vel.face_dims(a);
+                    let got = dst.slice(a);
+                    let mut n = 0;
+                    for k in 0..mz {
+                        for j in 0..my {
+                            for i in 0..mx {
+                                let mut c = Vec3::new(i as f32, j as f32, k as f32);
+                                c[a] -= 0.5;
+                                let u0 = at_face_ref(&vel, a, [i, j, k]);
+                                let g = departure_ref(&vel, c, u0, 0.7, bt);
+                                let wall = kind == BoxKind::Closed
+                                    && ([i, j, k][a] == 0 || [i, j, k][a] == d.dims[a]);
+                                let want = if wall {
+                                    0.0
+                                } else {
+                                    component_ref(&vel, a, src.slice(a), g)
+                                };
+                                assert!(
+                                    got[n].to_bits() == want.to_bits(),
+                                    "{isa} {kind} {speed} {bt:?} component {a} face {:?}: {} vs {want}",
+                                    [i, j, k],
+                                    got[n]
+                                );
+                                n += 1;
+                            }
                         }
                     }
                 }
             }
         }
-    }
+    });
 }
 
 #[test]
 fn cell_departures_match_the_general_stencil() {
-    for (d, (kind, speed)) in boxes([[10, 7, 9], [37, 7, 9]]) {
-        let vel = rough(d, kind, speed);
-        let sampler = vel.sampler();
-        for bt in Backtrace::ALL {
-            let mut dep = Departures::new(d);
-            dep.trace(&vel, 0.7, bt);
-            for (n, got) in dep.points().iter().enumerate() {
-                let [nx, ny, _] = d.dims;
-                let c = [n % nx, n / nx % ny, n / (nx * ny)];
-                let u0 = sampler.at_cell(c);
-                let want = departure_ref(&vel, Vec3::from_array(c.map(|x| x as f32)), u0, 0.7, bt);
-                assert!(
-                    (*got - want).abs().max_element() <= 1e-6 * (1.0 + speed),
-                    "{kind} {speed} {bt:?} cell {c:?}: {got} vs {want}"
-                );
+    on_every_isa(|isa| {
+        for (d, (kind, speed)) in boxes([[10, 7, 9], [37, 7, 9]]) {
+            let vel = rough(d, kind, speed);
+            let sampler = vel.sampler();
+            for bt in Backtrace::ALL {
+                let mut dep = Departures::new(d);
+                dep.trace(&vel, 0.7, bt);
+                for (n, got) in dep.points().iter().enumerate() {
+                    let [nx, ny, _] = d.dims;
+                    let c = [n % nx, n / nx % ny, n / (nx * ny)];
+                    let u0 = sampler.at_cell(c);
+                    let want =
+                        departure_ref(&vel, Vec3::from_array(c.map(|x| x as f32)), u0, 0.7, bt);
+                    assert!(
+                        (*got - want).abs().max_element() <= 1e-6 * (1.0 + speed),
+                        "{isa} {kind} {speed} {bt:?} cell {c:?}: {got} vs {want}"
+                    );
+                }
             }
         }
-    }
+    });
 }
 
 /// The fused sweep and `advect_scalar` (departures traced and densities
@@ -182,45 +191,47 @@ fn cell_departures_match_the_general_stencil() {
 /// where not.
 #[test]
 fn fused_densities_match_the_scalar_sweep_to_the_bit() {
-    for (d, (kind, speed)) in boxes([[12, 11, 10], [37, 11, 10]]) {
-        let vel = rough(d, kind, speed);
-        let densities: Vec<ScalarGrid> = (0..2)
-            .map(|m| {
-                let mut g = ScalarGrid::zeros(d).with_wrap(kind.wrap());
-                let face = rough(d, kind, 1.0 + m as f32);
-                g.as_slice_mut().copy_from_slice(&face.slice(0)[..d.len()]);
-                g
-            })
-            .collect();
-        for bt in Backtrace::ALL {
-            let srcs: Vec<&ScalarGrid> = densities.iter().collect();
-            let mut fused: Vec<ScalarGrid> = densities.clone();
-            let mut dsts: Vec<&mut ScalarGrid> = fused.iter_mut().collect();
-            let mut vel_out = FaceGrid::zeros(d, kind);
-            advect_fused(&vel, 0.7, bt, &srcs, &mut dsts, &mut vel_out);
-            for (src, got) in densities.iter().zip(&fused) {
-                let mut unfused = src.clone();
-                advect_scalar(src, &vel, 0.7, bt, &mut unfused);
-                let [nx, ny, _] = d.dims;
-                let want = |n: usize| {
-                    let c = Vec3::new(
-                        (n % nx) as f32,
-                        (n / nx % ny) as f32,
-                        (n / (nx * ny)) as f32,
-                    );
-                    let g = departure_point(&vel, c, 0.7 / d.cell, bt);
-                    Stencil::new(g, d.dims, src.wrap()).apply(src.as_slice())
-                };
-                for (name, got) in [("fused", got), ("unfused", &unfused)] {
-                    let differ = (got.as_slice().iter().enumerate())
-                        .filter(|&(n, v)| v.to_bits() != want(n).to_bits())
-                        .count();
-                    assert_eq!(
-                        differ, 0,
-                        "{name} {kind} {speed} {bt:?}: {differ} cells differ"
-                    );
+    on_every_isa(|isa| {
+        for (d, (kind, speed)) in boxes([[12, 11, 10], [37, 11, 10]]) {
+            let vel = rough(d, kind, speed);
+            let densities: Vec<ScalarGrid> = (0..2)
+                .map(|m| {
+                    let mut g = ScalarGrid::zeros(d).with_wrap(kind.wrap());
+                    let face = rough(d, kind, 1.0 + m as f32);
+                    g.as_slice_mut().copy_from_slice(&face.slice(0)[..d.len()]);
+                    g
+                })
+                .collect();
+            for bt in Backtrace::ALL {
+                let srcs: Vec<&ScalarGrid> = densities.iter().collect();
+                let mut fused: Vec<ScalarGrid> = densities.clone();
+                let mut dsts: Vec<&mut ScalarGrid> = fused.iter_mut().collect();
+                let mut vel_out = FaceGrid::zeros(d, kind);
+                advect_fused(&vel, 0.7, bt, &srcs, &mut dsts, &mut vel_out);
+                for (src, got) in densities.iter().zip(&fused) {
+                    let mut unfused = src.clone();
+                    advect_scalar(src, &vel, 0.7, bt, &mut unfused);
+                    let [nx, ny, _] = d.dims;
+                    let want = |n: usize| {
+                        let c = Vec3::new(
+                            (n % nx) as f32,
+                            (n / nx % ny) as f32,
+                            (n / (nx * ny)) as f32,
+                        );
+                        let g = departure_point(&vel, c, 0.7 / d.cell, bt);
+                        Stencil::new(g, d.dims, src.wrap()).apply(src.as_slice())
+                    };
+                    for (name, got) in [("fused", got), ("unfused", &unfused)] {
+                        let differ = (got.as_slice().iter().enumerate())
+                            .filter(|&(n, v)| v.to_bits() != want(n).to_bits())
+                            .count();
+                        assert_eq!(
+                            differ, 0,
+                            "{isa} {name} {kind} {speed} {bt:?}: {differ} cells differ"
+                        );
+                    }
                 }
             }
         }
-    }
+    });
 }

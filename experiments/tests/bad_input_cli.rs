@@ -5,24 +5,17 @@
 
 mod common;
 
-use std::path::Path;
+use common::{assert_ok, Sandbox};
 
-use common::{small_hot_cold_run, smokelab};
-
-/// Run `args` in `cwd` and check it exits 2 with one line holding every
+/// Run `args` in `sb` and check it exits 2 with one line holding every
 /// needle.
-fn assert_refused(args: &[&str], cwd: &Path, needles: &[&str]) {
-    let o = smokelab(args, cwd);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+fn assert_refused(sb: &Sandbox, args: &[&str], needles: &[&str]) {
+    let err = sb.refused(args, needles);
     assert_eq!(
         err.lines().filter(|l| !l.trim().is_empty()).count(),
         1,
         "{args:?}: {err}"
     );
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: {err:?} does not mention {n:?}");
-    }
 }
 
 /// `render RUN_DIR --out RUN_DIR` replaced the run's manifest with the
@@ -30,78 +23,71 @@ fn assert_refused(args: &[&str], cwd: &Path, needles: &[&str]) {
 /// as not a run's. Likewise `noise --out RUN_DIR`.
 #[test]
 fn writing_over_a_run_folder_manifest_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    small_hot_cold_run(dir.path(), "run", &["--save-every", "2"]);
-    let manifest = std::fs::read(dir.path().join("run/manifest.json")).unwrap();
-    let files = std::fs::read_dir(dir.path().join("run")).unwrap().count();
+    let sb = Sandbox::new();
+    sb.small_hot_cold_run("run", &["--save-every", "2"]);
+    let manifest = std::fs::read(sb.join("run/manifest.json")).unwrap();
+    let files = std::fs::read_dir(sb.join("run")).unwrap().count();
     assert_refused(
+        &sb,
         &["render", "run", "--out", "run", "--quiet"],
-        dir.path(),
         &["output folder run holds a manifest.json", "another --out"],
     );
     assert_refused(
+        &sb,
         &["noise", "value", "--res", "8", "--out", "run", "--quiet"],
-        dir.path(),
         &["smokelab noise", "another --out"],
     );
     assert_eq!(
-        std::fs::read(dir.path().join("run/manifest.json")).unwrap(),
+        std::fs::read(sb.join("run/manifest.json")).unwrap(),
         manifest
     );
-    assert_eq!(
-        std::fs::read_dir(dir.path().join("run")).unwrap().count(),
-        files
-    );
+    assert_eq!(std::fs::read_dir(sb.join("run")).unwrap().count(), files);
     // A render's own folder may be rendered into again, with --overwrite.
     let render = |extra: &[&str]| {
         let mut args = vec!["render", "run", "--image", "16x16", "--out", "r", "--quiet"];
         args.extend_from_slice(extra);
-        smokelab(&args, dir.path())
+        sb.run(&args)
     };
     assert!(render(&[]).status.success());
     assert_refused(
+        &sb,
         &["render", "run", "--image", "16x16", "--out", "r", "--quiet"],
-        dir.path(),
         &[
             "output folder r holds 3 files of an earlier run",
             "--overwrite",
         ],
     );
-    let o = render(&["--overwrite"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&render(&["--overwrite"]), &["render", "--overwrite"]);
 }
 
 /// `render --size 1e30` (and 1e-30) was refused as "camera position and
 /// look-at coincide": the squared distances overflowed (underflowed) f32.
 #[test]
 fn render_box_sizes_outside_f32_geometry_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
-    small_hot_cold_run(dir.path(), "run", &["--save-every", "2"]);
+    let sb = Sandbox::new();
+    sb.small_hot_cold_run("run", &["--save-every", "2"]);
     for size in ["1e30", "1e-30", "1e10"] {
         assert_refused(
+            &sb,
             &["render", "run", "--size", size, "--out", "o", "--quiet"],
-            dir.path(),
             &["world units along its longest axis", "between 1e-3 and 1e9"],
         );
-        assert!(!dir.path().join("o").exists());
+        assert!(!sb.join("o").exists());
     }
     // The ends of the range render.
     for size in ["1e-3", "1e9"] {
-        let o = smokelab(
-            &[
-                "render",
-                "run",
-                "--size",
-                size,
-                "--image",
-                "16x16",
-                "--out",
-                "o",
-                "--quiet",
-                "--overwrite",
-            ],
-            dir.path(),
-        );
+        let o = sb.run(&[
+            "render",
+            "run",
+            "--size",
+            size,
+            "--image",
+            "16x16",
+            "--out",
+            "o",
+            "--quiet",
+            "--overwrite",
+        ]);
         assert!(
             o.status.success(),
             "{size}: {}",
@@ -115,19 +101,20 @@ fn render_box_sizes_outside_f32_geometry_are_refused() {
 /// fraction of a lattice cell.
 #[test]
 fn noise_sampled_beyond_f32_lattice_reach_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     for size in ["1e30", "1e12", "2e6"] {
         assert_refused(
+            &sb,
             &[
                 "noise", "value", "--res", "8", "--size", size, "--out", "o", "--quiet",
             ],
-            dir.path(),
             &["samples the lattice out to", "at most 1e6"],
         );
     }
     // With octaves the last one's lattice counts: 4 × 2¹⁵ = 131072 is fine,
     // 40 × 2¹⁵ = 1.3e6 is not.
     assert_refused(
+        &sb,
         &[
             "noise",
             "value",
@@ -141,49 +128,41 @@ fn noise_sampled_beyond_f32_lattice_reach_is_refused() {
             "o",
             "--quiet",
         ],
-        dir.path(),
         &["1.311e6 cells"],
     );
-    assert!(!dir.path().join("o").exists());
-    let o = smokelab(
-        &[
-            "noise",
-            "value",
-            "--res",
-            "8",
-            "--octaves",
-            "16",
-            "--out",
-            "o",
-            "--quiet",
-        ],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!sb.join("o").exists());
+    sb.ok(&[
+        "noise",
+        "value",
+        "--res",
+        "8",
+        "--octaves",
+        "16",
+        "--out",
+        "o",
+        "--quiet",
+    ]);
 }
 
 /// `experiment --list 03-2` listed and ignored the id (exit 0).
 #[test]
 fn experiment_list_with_an_id_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     for args in [
         &["experiment", "--list", "03-2"][..],
         &["experiment", "03-2", "--list"],
         &["experiment", "--list", "--out", "o"],
     ] {
-        let o = smokelab(args, dir.path());
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains("cannot be used with"), "{args:?}: {err}");
+        sb.refused(args, &["cannot be used with"]);
     }
-    assert!(!dir.path().join("o").exists());
+    assert!(!sb.join("o").exists());
 }
 
 /// `--selma-remap` is SELMA's, as `--map-res` is: given to another density
 /// mode it is refused (it used to be accepted silently), naming the mode.
 #[test]
 fn selma_remap_without_selma_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     for (mode, remap) in [
         ("gridded", ["--selma-remap", "2"]),
         ("gridless", ["--selma-remap", "0.5"]),
@@ -206,25 +185,21 @@ fn selma_remap_without_selma_is_refused() {
         .concat();
         let value = remap[1].trim_start_matches("selma_remap=");
         let needle = format!("selma_remap {value} is only used by --density selma");
-        assert_refused(&args, dir.path(), &[needle.as_str(), mode]);
+        assert_refused(&sb, &args, &[needle.as_str(), mode]);
     }
-    assert!(!dir.path().join("o").exists());
-    let o = smokelab(
-        &[
-            "run",
-            "--res",
-            "10",
-            "--frames",
-            "1",
-            "--density",
-            "selma",
-            "--selma-remap",
-            "2",
-            "--quiet",
-            "--out",
-            "o",
-        ],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!sb.join("o").exists());
+    sb.ok(&[
+        "run",
+        "--res",
+        "10",
+        "--frames",
+        "1",
+        "--density",
+        "selma",
+        "--selma-remap",
+        "2",
+        "--quiet",
+        "--out",
+        "o",
+    ]);
 }

@@ -2,22 +2,17 @@
 
 mod common;
 
-use common::smokelab;
+use clap::ValueEnum;
+use common::Sandbox;
+use smokelab::scenario::ScenarioKind;
 
 fn assert_rejected(args: &[&str], needle: &str) {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("bad.toml"), "res = \"fifty\"\n").unwrap();
-    std::fs::write(dir.path().join("unknown.toml"), "res = 8\nresolution = 8\n").unwrap();
+    let sb = Sandbox::new();
+    std::fs::write(sb.join("bad.toml"), "res = \"fifty\"\n").unwrap();
+    std::fs::write(sb.join("unknown.toml"), "res = 8\nresolution = 8\n").unwrap();
     let mut full: Vec<&str> = args.to_vec();
     full.extend(["--out", "out"]);
-    let o = smokelab(&full, dir.path());
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "{args:?}: exit {:?}, stderr {err}",
-        o.status.code()
-    );
+    let err = sb.fails(&full, 2);
     assert!(
         err.contains(needle),
         "{args:?}: stderr {err:?} does not mention {needle:?}"
@@ -27,11 +22,11 @@ fn assert_rejected(args: &[&str], needle: &str) {
         "{args:?}: message too long: {err}"
     );
     assert!(
-        !dir.path().join("out").exists(),
+        !sb.join("out").exists(),
         "{args:?}: output folder was created"
     );
     assert!(
-        !dir.path().join("runs").exists(),
+        !sb.join("runs").exists(),
         "{args:?}: a run folder was created"
     );
 }
@@ -95,46 +90,32 @@ fn bad_inputs_exit_2_and_write_nothing() {
 #[test]
 fn output_paths_inside_files_are_refused() {
     for out in ["/dev/null", "/dev/null/run"] {
-        let dir = tempfile::tempdir().unwrap();
-        let o = smokelab(&["run", "hot-cold", "--res", "8", "--out", out], dir.path());
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{out}: {err}");
+        let sb = Sandbox::new();
+        let err = sb.fails(&["run", "hot-cold", "--res", "8", "--out", out], 2);
         assert!(err.contains("give a folder"), "{out}: {err}");
     }
 }
 
-/// `smokelab run <scenario> --print-config` prints a TOML file that, given
-/// back as `--config`, resolves to the same configuration.
+/// `smokelab run <scenario> --print-config`, for every scenario, prints a
+/// TOML file that, given back as `--config`, resolves to the same
+/// configuration.
 #[test]
 fn print_config_round_trips() {
-    let dir = tempfile::tempdir().unwrap();
-    for scenario in ["hot-cold", "slab-box"] {
-        let args = [
-            "run",
-            scenario,
-            "--res",
-            "24",
-            "--set",
-            "wall=0.9",
-            "--print-config",
-        ];
-        let args: Vec<&str> = if scenario == "hot-cold" {
-            args.iter()
-                .copied()
-                .filter(|a| *a != "--set" && *a != "wall=0.9")
-                .collect()
-        } else {
-            args.to_vec()
-        };
-        let o = smokelab(&args, dir.path());
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sb = Sandbox::new();
+    for kind in ScenarioKind::ALL {
+        let name = kind.to_possible_value().expect("not hidden");
+        let scenario = name.get_name();
+        let mut args = vec!["run", scenario, "--res", "24"];
+        // A key of one scenario only, so that the file holds it too.
+        if kind == ScenarioKind::SlabBox {
+            args.extend(["--set", "wall=0.9"]);
+        }
+        args.push("--print-config");
+        let o = sb.ok(&args);
         let printed = String::from_utf8(o.stdout).unwrap();
         assert!(printed.contains("res = 24"), "{printed}");
-        std::fs::write(dir.path().join("c.toml"), &printed).unwrap();
-        let again = smokelab(
-            &["run", scenario, "--config", "c.toml", "--print-config"],
-            dir.path(),
-        );
+        std::fs::write(sb.join("c.toml"), &printed).unwrap();
+        let again = sb.run(&["run", scenario, "--config", "c.toml", "--print-config"]);
         assert_eq!(
             String::from_utf8(again.stdout).unwrap(),
             printed,
@@ -145,34 +126,29 @@ fn print_config_round_trips() {
 
 #[test]
 fn experiment_list_names_06_1() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(&["experiment", "--list"], dir.path());
-    assert!(o.status.success());
+    let sb = Sandbox::new();
+    let o = sb.ok(&["experiment", "--list"]);
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("06-1") && out.contains("fig"), "{out}");
 }
 
 #[test]
 fn small_run_writes_whole_outputs() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(
-        &[
-            "run",
-            "hot-cold",
-            "--res",
-            "12",
-            "--frames",
-            "4",
-            "--save-every",
-            "2",
-            "--out",
-            "r",
-            "--quiet",
-        ],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r = dir.path().join("r");
+    let sb = Sandbox::new();
+    sb.ok(&[
+        "run",
+        "hot-cold",
+        "--res",
+        "12",
+        "--frames",
+        "4",
+        "--save-every",
+        "2",
+        "--out",
+        "r",
+        "--quiet",
+    ]);
+    let r = sb.join("r");
     for f in [
         "hot_0002.npy",
         "cold_0004.npy",
@@ -204,8 +180,7 @@ fn small_run_writes_whole_outputs() {
     }
     let csv = std::fs::read_to_string(r.join("metrics.csv")).unwrap();
     assert_eq!(csv.lines().count(), 5, "header + one row per step");
-    let manifest: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(r.join("manifest.json")).unwrap()).unwrap();
+    let manifest = common::manifest(&r);
     assert_eq!(manifest["config"]["res"], 12);
     assert!(std::fs::read_dir(&r).unwrap().all(|e| !e
         .unwrap()
@@ -216,13 +191,9 @@ fn small_run_writes_whole_outputs() {
 
 #[test]
 fn experiment_06_1_smoke_gases_pass_each_other_unless_head_on() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(
-        &["experiment", "06-1", "--smoke", "--quiet", "--out", "e"],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let e = dir.path().join("e");
+    let sb = Sandbox::new();
+    sb.ok(&["experiment", "06-1", "--smoke", "--quiet", "--out", "e"]);
+    let e = sb.join("e");
     for f in [
         "sequence.png",
         "metrics.csv",
@@ -281,14 +252,10 @@ fn experiment_06_1_smoke_gases_pass_each_other_unless_head_on() {
 
 #[test]
 fn experiment_all_smoke_runs_every_experiment_and_tabulates() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(
-        &["experiment", "all", "--smoke", "--quiet", "--out", "all"],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let table = std::fs::read_to_string(dir.path().join("all/experiments.csv")).unwrap();
-    let list = String::from_utf8(smokelab(&["experiment", "--list"], dir.path()).stdout).unwrap();
+    let sb = Sandbox::new();
+    sb.ok(&["experiment", "all", "--smoke", "--quiet", "--out", "all"]);
+    let table = std::fs::read_to_string(sb.join("all/experiments.csv")).unwrap();
+    let list = String::from_utf8(sb.run(&["experiment", "--list"]).stdout).unwrap();
     // One row per experiment of the listing (header excluded), each "ok",
     // each output folder written.
     let ids: Vec<&str> = list
@@ -307,7 +274,7 @@ fn experiment_all_smoke_runs_every_experiment_and_tabulates() {
     for (row, id) in rows.iter().zip(&ids) {
         assert_eq!(&row[0], *id, "{row:?}");
         assert_eq!(&row[4], "ok", "{row:?}");
-        let folder = dir.path().join(&row[3]);
+        let folder = sb.join(&row[3]);
         assert!(
             std::fs::read_dir(&folder).is_ok_and(|mut d| d.next().is_some()),
             "{id} wrote nothing in {}",
@@ -320,27 +287,23 @@ fn experiment_all_smoke_runs_every_experiment_and_tabulates() {
 /// ParaView, and the manifest records where the grid sits in the world.
 #[test]
 fn a_run_writes_vdb_and_paraview_frames_and_its_grid() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(
-        &[
-            "run",
-            "hot-cold",
-            "--res",
-            "10",
-            "--frames",
-            "4",
-            "--save-every",
-            "2",
-            "--vdb",
-            "--paraview",
-            "--quiet",
-            "--out",
-            "out",
-        ],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let out = dir.path().join("out");
+    let sb = Sandbox::new();
+    sb.ok(&[
+        "run",
+        "hot-cold",
+        "--res",
+        "10",
+        "--frames",
+        "4",
+        "--save-every",
+        "2",
+        "--vdb",
+        "--paraview",
+        "--quiet",
+        "--out",
+        "out",
+    ]);
+    let out = sb.join("out");
     // Numbered 1, 2 in the order saved (steps 2 and 4), as a sequence.
     for f in [
         "frame_0001.vdb",
@@ -356,8 +319,7 @@ fn a_run_writes_vdb_and_paraview_frames_and_its_grid() {
         pvd.contains("timestep=\"0.2\" group=\"\" part=\"0\" file=\"frame_0002.vti\""),
         "{pvd}"
     );
-    let manifest: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let manifest = common::manifest(&out);
     let grid = &manifest["extra"]["grid"];
     assert_eq!(grid["dims"], serde_json::json!([10, 10, 10]));
     assert_eq!(grid["cell"], serde_json::json!(1.0));
@@ -369,8 +331,8 @@ fn a_run_writes_vdb_and_paraview_frames_and_its_grid() {
 /// `--overwrite` the earlier outputs are replaced and none of its frames stay.
 #[test]
 fn a_rerun_into_a_used_folder_is_refused_unless_overwrite() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = |frames: &str, extra: &[&str]| {
+    let sb = Sandbox::new();
+    let args = |frames: &'static str, extra: &[&'static str]| {
         let mut args = vec![
             "run",
             "hot-cold",
@@ -385,21 +347,17 @@ fn a_rerun_into_a_used_folder_is_refused_unless_overwrite() {
             "out",
         ];
         args.extend_from_slice(extra);
-        smokelab(&args, dir.path())
+        args
     };
-    assert!(run("6", &[]).status.success());
-    let out = dir.path().join("out");
+    sb.ok(&args("6", &[]));
+    let out = sb.join("out");
     std::fs::write(out.join("notes.txt"), "mine").unwrap();
-    let o = run("2", &[]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("--overwrite"), "{err}");
+    sb.refused(&args("2", &[]), &["--overwrite"]);
     assert!(
         out.join("hot_0006.npy").is_file(),
         "the refused rerun removed files"
     );
-    let o = run("2", &["--overwrite"]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    sb.ok(&args("2", &["--overwrite"]));
     assert!(out.join("hot_0002.npy").is_file());
     for stale in [
         "hot_0004.npy",
@@ -422,7 +380,7 @@ fn a_rerun_into_a_used_folder_is_refused_unless_overwrite() {
 /// axis, the wall faces are exactly zero, and the manifest says so.
 #[test]
 fn a_closed_box_run_writes_wall_faces() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     let args = [
         "run",
         "hot-cold",
@@ -438,9 +396,8 @@ fn a_closed_box_run_writes_wall_faces() {
         "c",
         "--quiet",
     ];
-    let o = smokelab(&args, dir.path());
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let c = dir.path().join("c");
+    sb.ok(&args);
+    let c = sb.join("c");
     let read = |n: &str| -> ndarray::Array3<f32> {
         ndarray_npy::read_npy(c.join(format!("{n}_0003.npy"))).unwrap()
     };
@@ -460,15 +417,14 @@ fn a_closed_box_run_writes_wall_faces() {
     ];
     assert!(walls.iter().all(|wall| wall.iter().all(|&x| x == 0.0)));
     assert!(v.iter().any(|&x| x != 0.0), "the gases did not move");
-    let manifest: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(c.join("manifest.json")).unwrap()).unwrap();
+    let manifest = common::manifest(&c);
     assert_eq!(manifest["extra"]["grid"]["boundary"], "closed");
 }
 
 /// A CFL number far beyond any resolved flow gets one warning with the number.
 #[test]
 fn a_huge_cfl_number_is_warned_about() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     let args = [
         "run",
         "hot-cold",
@@ -484,8 +440,7 @@ fn a_huge_cfl_number_is_warned_about() {
         "g",
         "--quiet",
     ];
-    let o = smokelab(&args, dir.path());
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = sb.ok(&args);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.matches("warning: CFL number").count(), 1, "{err}");
     assert!(err.contains("lower --dt or --gravity"), "{err}");
@@ -495,9 +450,8 @@ fn a_huge_cfl_number_is_warned_about() {
 /// built from, so a bug report says which code ran.
 #[test]
 fn version_prints_the_version_and_the_commit() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(&["--version"], dir.path());
-    assert!(o.status.success());
+    let sb = Sandbox::new();
+    let o = sb.ok(&["--version"]);
     let out = String::from_utf8_lossy(&o.stdout);
     let expected = format!("smokelab {} (", env!("CARGO_PKG_VERSION"));
     assert!(out.starts_with(&expected), "{out:?}");

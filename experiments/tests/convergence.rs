@@ -9,29 +9,28 @@ use smokelab::noise::curl::FdScheme;
 use smokelab_app::convergence_cases::{self as cases, Sampling, Study};
 use smokelab_app::registry::{Context, Size};
 
-fn assert_order(study: &Study) {
-    let fit = study.fit();
-    println!("{}:\n{fit}\n", study.name);
-    assert!(
-        (fit.order - study.expected).abs() <= 0.25,
-        "{}: observed order {:.3}, expected {} ± 0.25",
-        study.name,
-        fit.order,
-        study.expected
-    );
+#[path = "../../tests/common/order.rs"]
+mod order;
+
+/// Every study's band around its expected order.
+const BAND: f64 = 0.25;
+
+/// [`order::assert_order`] on `study`'s spacings and errors, within [`BAND`].
+fn assert_study(study: &Study) {
+    order::assert_order(&study.name, &study.h, &study.error, study.expected, BAND);
 }
 
 #[test]
 fn semi_lagrangian_uniform_flow_is_first_order() {
     for bt in Backtrace::ALL {
-        assert_order(&cases::sl_uniform(bt, &[32, 64, 128, 256]));
+        assert_study(&cases::sl_uniform(bt, &[32, 64, 128, 256]));
     }
 }
 
 #[test]
 fn semi_lagrangian_rotation_is_first_order() {
     for bt in Backtrace::ALL {
-        assert_order(&cases::sl_rotation(bt, &[32, 64, 128]));
+        assert_study(&cases::sl_rotation(bt, &[32, 64, 128]));
     }
 }
 
@@ -39,8 +38,8 @@ fn semi_lagrangian_rotation_is_first_order() {
 fn quick_uniform_flow_is_second_order_and_beats_semi_lagrangian() {
     let levels = [32, 64, 128, 256];
     let quick = cases::quick_uniform(Sampling::Point, &levels);
-    assert_order(&quick);
-    assert_order(&cases::quick_uniform(Sampling::CellAverage, &levels));
+    assert_study(&quick);
+    assert_study(&cases::quick_uniform(Sampling::CellAverage, &levels));
     // Same problem, same resolutions: QUICK's error is below SL's at every level.
     let sl = cases::sl_uniform(Backtrace::Rk2, &levels);
     for ((n, q), s) in levels.iter().zip(&quick.error).zip(&sl.error) {
@@ -52,63 +51,63 @@ fn quick_uniform_flow_is_second_order_and_beats_semi_lagrangian() {
 #[test]
 fn maccormack_is_near_second_order_in_smooth_flow() {
     for bt in Backtrace::ALL {
-        assert_order(&cases::maccormack_uniform(bt, &[32, 64, 128, 256]));
-        assert_order(&cases::maccormack_rotation(bt, &[32, 64, 128]));
+        assert_study(&cases::maccormack_uniform(bt, &[32, 64, 128, 256]));
+        assert_study(&cases::maccormack_rotation(bt, &[32, 64, 128]));
     }
 }
 
 #[test]
 fn gridless_returns_from_the_deformation_at_third_order_in_dt() {
-    assert_order(&cases::deformation_gridless_return(&[48, 96, 192]));
+    assert_study(&cases::deformation_gridless_return(&[48, 96, 192]));
 }
 
 #[test]
 fn taylor_green_navier_stokes_maccormack_is_first_order() {
-    assert_order(&cases::taylor_green_maccormack(&[16, 32, 64]));
+    assert_study(&cases::taylor_green_maccormack(&[16, 32, 64]));
 }
 
 #[test]
 fn quick_rotation_is_second_order() {
-    assert_order(&cases::quick_rotation(&[32, 64, 128]));
+    assert_study(&cases::quick_rotation(&[32, 64, 128]));
 }
 
 #[test]
 fn taylor_green_navier_stokes_sl_is_first_order() {
-    assert_order(&cases::taylor_green_sl(&[16, 32, 64]));
+    assert_study(&cases::taylor_green_sl(&[16, 32, 64]));
 }
 
 #[test]
 fn taylor_green_navier_stokes_quick_is_first_order() {
-    assert_order(&cases::taylor_green_quick(&[16, 32, 64]));
+    assert_study(&cases::taylor_green_quick(&[16, 32, 64]));
 }
 
 #[test]
 fn gridless_backtraces_converge_in_dt_at_their_order() {
-    assert_order(&cases::gridless_rotation(
+    assert_study(&cases::gridless_rotation(
         Backtrace::Euler,
         &[8, 16, 32, 64],
     ));
-    assert_order(&cases::gridless_rotation(Backtrace::Rk2, &[8, 16, 32, 64]));
+    assert_study(&cases::gridless_rotation(Backtrace::Rk2, &[8, 16, 32, 64]));
     // RK3 from coarser steps: at 64 steps its error nears f32 round-off.
-    assert_order(&cases::gridless_rotation(Backtrace::Rk3, &[4, 8, 16, 32]));
-    assert_order(&cases::gridless_field_chain(&[8, 16, 32, 64]));
+    assert_study(&cases::gridless_rotation(Backtrace::Rk3, &[4, 8, 16, 32]));
+    assert_study(&cases::gridless_field_chain(&[8, 16, 32, 64]));
 }
 
 #[test]
 fn selma_converges_to_gridless_at_second_order_in_the_map_cell() {
-    assert_order(&cases::selma_to_gridless(&[16, 32, 64]));
+    assert_study(&cases::selma_to_gridless(&[16, 32, 64]));
 }
 
 #[test]
 fn finite_difference_curl_noise_divergence_vanishes_at_the_scheme_order() {
     let steps = [0.1, 0.05, 0.025, 0.0125];
-    assert_order(&cases::curl_fd_divergence(FdScheme::Central, &steps));
-    assert_order(&cases::curl_fd_divergence(FdScheme::Backward, &steps));
+    assert_study(&cases::curl_fd_divergence(FdScheme::Central, &steps));
+    assert_study(&cases::curl_fd_divergence(FdScheme::Backward, &steps));
 }
 
 #[test]
 fn mac_projection_is_second_order() {
-    assert_order(&cases::projection_mac(&[16, 32, 64]));
+    assert_study(&cases::projection_mac(&[16, 32, 64]));
 }
 
 /// C-1 at its default (larger) sizes, written to a temporary folder: every

@@ -4,7 +4,7 @@
 //! per gridless frame and stay flat for SELMA; render work must grow with
 //! the gridless chain (the walk steps counted) and not with SELMA's frames.
 //! Render times are asserted on the committed default-size studies
-//! (`provenance.rs`), not here.
+//! (`results_provenance.rs`, the data gate), not here.
 //!
 //! One test in this binary: the measurements are process-wide, so nothing
 //! else may run beside them.
@@ -75,7 +75,7 @@ fn measured_memory_grows_one_grid_per_gridless_frame_and_is_flat_for_selma() {
         // grids, plus the chain's per-frame state), r² 0.990 and 0.995 —
         // but 0.972 in one CI run: at 16³ a grid is 48 KiB, near the noise
         // of the render's per-task buffers. The fit's r² is asserted on the
-        // committed default-size study (`provenance.rs`), as the RSS is.
+        // committed default-size study (`results_provenance.rs`, the data gate), as the RSS is.
         let per_frame = heap.fit.slope / VELOCITY_GRID;
         assert_eq!(heap.trend, Trend::Linear, "{name}: heap {heap:?}");
         assert!(
@@ -87,7 +87,7 @@ fn measured_memory_grows_one_grid_per_gridless_frame_and_is_flat_for_selma() {
     // RSS is not asserted at smoke size: a 16³ grid is 12 pages, below the
     // noise of the allocator's arenas (measured 1.3–1.5 grids per frame,
     // r² 0.91–0.98, in most runs, but 0.39 and r² 0.36 in one CI run); it is
-    // asserted on the committed default-size study (`provenance.rs`).
+    // asserted on the committed default-size study (`results_provenance.rs`, the data gate).
     // The render work: the same samples at every k, ten times as many with
     // the tenfold finer march; what grows with the chain is counted, the
     // backward steps walked (`walk_steps`, points mapped × k). The render
@@ -150,7 +150,7 @@ fn measured_memory_grows_one_grid_per_gridless_frame_and_is_flat_for_selma() {
     // The render work, counted (time is wall time on a shared machine: a
     // CI run under load measured SELMA's last render at 2.4× its first; the
     // time fits are asserted on the committed default-size study,
-    // `provenance.rs`): the gridless chain walks k steps per point mapped,
+    // `results_provenance.rs`, the data gate): the gridless chain walks k steps per point mapped,
     // exactly k × the one-frame count; SELMA walks none at any k.
     let walk = series(&t, "gridless", "walk_steps");
     assert!(walk[1].1 > 0.0, "gridless walks: {walk:?}");

@@ -2,36 +2,36 @@
 
 mod common;
 
-use common::smokelab;
+use common::Sandbox;
+use smokelab::density::DensityMode;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::Scenario;
 use smokelab::scenario::SolverConfig;
 
 #[test]
 fn a_gridless_run_too_big_for_memory_is_refused_with_its_estimate() {
-    let dir = tempfile::tempdir().unwrap();
-    let run = |args: &[&str]| smokelab(args, dir.path());
+    let sb = Sandbox::new();
     // 64³ × 10⁶ steps: 12 MB per stored velocity grid, about 11 TiB in all.
-    let o = run(&[
-        "run",
-        "hot-cold",
-        "--density",
-        "gridless",
-        "--res",
-        "64",
-        "--frames",
-        "1000000",
-        "--out",
-        "out",
-    ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
+    let err = sb.refused(
+        &[
+            "run",
+            "hot-cold",
+            "--density",
+            "gridless",
+            "--res",
+            "64",
+            "--frames",
+            "1000000",
+            "--out",
+            "out",
+        ],
+        &["--force"],
+    );
     assert!(
         err.contains("GiB") && err.contains("one velocity grid per step"),
         "{err}"
     );
-    assert!(err.contains("--force"), "{err}");
-    assert!(!dir.path().join("out").exists());
+    assert!(!sb.join("out").exists());
     // The same run gridded fits.
     let cfg = HotColdConfig {
         solver: SolverConfig {
@@ -71,17 +71,14 @@ fn a_gridless_run_too_big_for_memory_is_refused_with_its_estimate() {
     ] {
         let mut a = args.to_vec();
         a.extend(["--out", "out"]);
-        let o = run(&a);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
-        assert!(err.contains(needle), "{args:?}: {err}");
-        assert!(!dir.path().join("out").exists());
+        sb.refused(&a, &[needle]);
+        assert!(!sb.join("out").exists());
     }
 }
 
 #[test]
 fn density_experiments_run_at_smoke_size_and_write_their_figures() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     for (id, figures) in [
         (
             "06-3",
@@ -92,23 +89,8 @@ fn density_experiments_run_at_smoke_size_and_write_their_figures() {
             &["side_by_side.png", "side_by_side_render.png", "final.png"][..],
         ),
     ] {
-        let out = dir.path().join(id);
-        let o = smokelab(
-            &[
-                "experiment",
-                id,
-                "--smoke",
-                "--quiet",
-                "--out",
-                out.to_str().unwrap(),
-            ],
-            dir.path(),
-        );
-        assert!(
-            o.status.success(),
-            "{id}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
+        let out = sb.join(id);
+        sb.ok(&["experiment", id, "--smoke", "--quiet", "--out", id]);
         let common = [
             "metrics.png",
             "metrics_mass.svg",
@@ -122,7 +104,7 @@ fn density_experiments_run_at_smoke_size_and_write_their_figures() {
             assert!(out.join(f).is_file(), "{id}: no {f}");
         }
         let summary = std::fs::read_to_string(out.join("summary.csv")).unwrap();
-        for mode in ["gridded", "gridless", "selma"] {
+        for mode in DensityMode::ALL.map(DensityMode::name) {
             assert!(
                 summary.lines().any(|l| l.starts_with(mode)),
                 "{id}: {summary}"

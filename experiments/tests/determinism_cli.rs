@@ -6,7 +6,8 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use common::smokelab;
+use common::Sandbox;
+use smokelab::density::DensityMode;
 
 /// Every `.npy` file in `dir`, by name.
 fn volumes(dir: &Path) -> BTreeMap<String, Vec<u8>> {
@@ -23,36 +24,31 @@ fn volumes(dir: &Path) -> BTreeMap<String, Vec<u8>> {
 
 /// `run hot-cold --res 16 --frames 4` in density mode `mode` on one thread
 /// and on two writes the same `.npy` files, byte for byte.
-fn assert_thread_count_does_not_change_the_volumes(mode: &str) {
-    let dir = tempfile::tempdir().unwrap();
+fn assert_thread_count_does_not_change_the_volumes(mode: DensityMode) {
+    let mode = mode.name();
+    let sb = Sandbox::new();
     let run = |threads: &str| {
         let out = format!("{mode}-{threads}");
-        let o = smokelab(
-            &[
-                "run",
-                "hot-cold",
-                "--density",
-                mode,
-                "--res",
-                "16",
-                "--frames",
-                "4",
-                "--save-every",
-                "2",
-                "--threads",
-                threads,
-                "--quiet",
-                "--out",
-                &out,
-            ],
-            dir.path(),
-        );
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let folder = dir.path().join(out);
-        let manifest: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(folder.join("manifest.json")).unwrap()).unwrap();
+        sb.ok(&[
+            "run",
+            "hot-cold",
+            "--density",
+            mode,
+            "--res",
+            "16",
+            "--frames",
+            "4",
+            "--save-every",
+            "2",
+            "--threads",
+            threads,
+            "--quiet",
+            "--out",
+            &out,
+        ]);
+        let folder = sb.join(out);
         assert_eq!(
-            manifest["machine"]["threads"].to_string(),
+            common::manifest(&folder)["machine"]["threads"].to_string(),
             threads,
             "{mode}: the run did not use {threads} threads"
         );
@@ -79,7 +75,7 @@ fn assert_thread_count_does_not_change_the_volumes(mode: &str) {
 
 #[test]
 fn every_density_mode_writes_the_same_volumes_on_one_and_two_threads() {
-    for mode in smokelab::density::DensityMode::ALL {
-        assert_thread_count_does_not_change_the_volumes(mode.name());
+    for mode in DensityMode::ALL {
+        assert_thread_count_does_not_change_the_volumes(mode);
     }
 }

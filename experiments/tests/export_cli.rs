@@ -5,25 +5,20 @@ mod common;
 
 use std::path::Path;
 
-use common::{small_hot_cold_run, smokelab};
+use common::Sandbox;
 
 /// Exporting a plain run gives the files a `--vdb --paraview` run of the
 /// same configuration wrote: the `.vti` frames and `run.pvd` byte for byte,
 /// the `.vdb` frames but for the 36 characters of each file's random UUID.
 #[test]
 fn export_writes_what_run_vdb_and_paraview_write() {
-    let dir = tempfile::tempdir().unwrap();
-    small_hot_cold_run(
-        dir.path(),
-        "direct",
-        &["--save-every", "2", "--vdb", "--paraview"],
-    );
-    small_hot_cold_run(dir.path(), "later", &["--save-every", "2"]);
+    let sb = Sandbox::new();
+    sb.small_hot_cold_run("direct", &["--save-every", "2", "--vdb", "--paraview"]);
+    sb.small_hot_cold_run("later", &["--save-every", "2"]);
     for format in ["vdb", "paraview"] {
-        let o = smokelab(&["export", format, "later"], dir.path());
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        sb.ok(&["export", format, "later"]);
     }
-    let (direct, later) = (dir.path().join("direct"), dir.path().join("later"));
+    let (direct, later) = (sb.join("direct"), sb.join("later"));
     let read = |d: &Path, f: &str| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
     for f in ["frame_0001.vti", "frame_0002.vti", "run.pvd"] {
         assert!(read(&direct, f) == read(&later, f), "{f} differs");
@@ -45,13 +40,13 @@ fn export_writes_what_run_vdb_and_paraview_write() {
 /// it, and nothing is written into it.
 #[test]
 fn export_refuses_what_is_not_a_run_folder() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let sb = Sandbox::new();
+    let d = sb.path();
     std::fs::write(d.join("file.txt"), "text").unwrap();
     std::fs::create_dir(d.join("empty")).unwrap();
     std::fs::create_dir(d.join("other")).unwrap();
     std::fs::write(d.join("other/manifest.json"), "{\"config\": {}}").unwrap();
-    small_hot_cold_run(d, "unsaved", &["--save-every", "0"]);
+    sb.small_hot_cold_run("unsaved", &["--save-every", "0"]);
     for (folder, needle) in [
         ("missing", "run folder missing cannot be read"),
         ("file.txt", "run folder file.txt is not a folder"),
@@ -63,12 +58,11 @@ fn export_refuses_what_is_not_a_run_folder() {
         ("unsaved", "run folder unsaved holds no saved frames"),
     ] {
         for format in ["vdb", "paraview"] {
-            let o = smokelab(&["export", format, folder], d);
-            let err = String::from_utf8_lossy(&o.stderr);
-            assert_eq!(o.status.code(), Some(2), "{folder}: {err}");
+            let err = sb.refused(
+                &["export", format, folder],
+                &[needle, "give a folder `smokelab run` wrote"],
+            );
             assert_eq!(err.trim().lines().count(), 1, "{folder}: {err}");
-            assert!(err.contains(needle), "{folder}: {err}");
-            assert!(err.contains("give a folder `smokelab run` wrote"), "{err}");
         }
     }
     for folder in ["empty", "other", "unsaved"] {
@@ -89,8 +83,8 @@ fn export_refuses_what_is_not_a_run_folder() {
 #[test]
 fn vdb_frames_carry_density_the_obstacle_level_set_and_a_sequence() {
     use vdb_rs::{MetadataValue, VdbReader};
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let sb = Sandbox::new();
+    let d = sb.path();
     let run = [
         "run",
         "slab-box",
@@ -104,8 +98,7 @@ fn vdb_frames_carry_density_the_obstacle_level_set_and_a_sequence() {
         "--quiet",
         "--out",
     ];
-    let o = smokelab(&[&run[..], &["s"]].concat(), d);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    sb.ok(&[&run[..], &["s"]].concat());
     let s = d.join("s");
     let names: Vec<String> = std::fs::read_dir(&s)
         .unwrap()
@@ -124,8 +117,7 @@ fn vdb_frames_carry_density_the_obstacle_level_set_and_a_sequence() {
     let mut r = read(&s.join("frame_0002.vdb"));
     let mut grids = r.available_grids();
     grids.sort();
-    let manifest: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(s.join("manifest.json")).unwrap()).unwrap();
+    let manifest = sb.manifest("s");
     let gases: Vec<String> = manifest["extra"]["gases"]
         .as_array()
         .unwrap()
@@ -210,8 +202,7 @@ fn vdb_frames_carry_density_the_obstacle_level_set_and_a_sequence() {
         "--quiet",
     ];
     for (out, extra) in [("sum", &[][..]), ("cold", &["--density-grid", "cold"][..])] {
-        let o = smokelab(&[&hc[..], &["--out", out], extra].concat(), d);
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        sb.ok(&[&hc[..], &["--out", out], extra].concat());
     }
     let mut sum = read(&d.join("sum/frame_0002.vdb"));
     let mut cold = read(&d.join("cold/frame_0002.vdb"));

@@ -7,7 +7,7 @@ mod common;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use common::smokelab;
+use common::{assert_ok, smokelab, Sandbox};
 use smokelab_app::registry;
 
 /// Every PNG/SVG under `root`, relative to it, `/`-separated.
@@ -58,11 +58,8 @@ fn copy_tree(from: &Path, to: &Path) {
 /// Run `smokelab gallery --results DIR`, check it succeeded and return the
 /// page.
 fn gallery(results: &Path) -> String {
-    let o = smokelab(
-        &["gallery", "--results", results.to_str().unwrap()],
-        results,
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let args = ["gallery", "--results", results.to_str().unwrap()];
+    assert_ok(&smokelab(&args, results), &args);
     std::fs::read_to_string(results.join("index.html")).unwrap()
 }
 
@@ -178,40 +175,23 @@ fn a_small_results_tree_is_shown_whole() {
 
 #[test]
 fn a_missing_folder_or_one_without_manifests_is_refused() {
-    let tmp = tempfile::tempdir().unwrap();
-    let missing = tmp.path().join("nope");
-    let o = smokelab(
-        &["gallery", "--results", missing.to_str().unwrap()],
-        tmp.path(),
+    let sb = Sandbox::new();
+    let err = sb.refused(
+        &["gallery", "--results", "nope"],
+        &["nope", "cannot be read"],
     );
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(
-        err.contains("nope") && err.contains("cannot be read"),
-        "{err}"
-    );
-    assert!(!missing.exists());
+    assert!(!sb.join("nope").exists());
 
-    let bare = tmp.path().join("bare");
-    write_png(&bare.join("a/fig.png"));
-    let o = smokelab(
-        &["gallery", "--results", bare.to_str().unwrap()],
-        tmp.path(),
+    write_png(&sb.join("bare/a/fig.png"));
+    sb.refused(
+        &["gallery", "--results", "bare"],
+        &["holds no manifest.json"],
     );
-    assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("holds no manifest.json"), "{err}");
-    assert!(!bare.join("index.html").exists());
+    assert!(!sb.join("bare/index.html").exists());
 
-    let file = tmp.path().join("file");
-    std::fs::write(&file, "x").unwrap();
-    let o = smokelab(
-        &["gallery", "--results", file.to_str().unwrap()],
-        tmp.path(),
-    );
-    assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("is not a folder"));
+    std::fs::write(sb.join("file"), "x").unwrap();
+    sb.refused(&["gallery", "--results", "file"], &["is not a folder"]);
 }
 
 /// A copy of the committed `results/` with `paper/paper.md` beside it (the

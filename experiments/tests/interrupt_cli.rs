@@ -4,21 +4,16 @@
 
 mod common;
 
-use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::small_hot_cold_run;
-
-fn manifest(dir: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(dir.join("manifest.json")).unwrap()).unwrap()
-}
+use common::{assert_exit, manifest, Sandbox};
 
 #[test]
 fn a_finished_run_says_complete() {
-    let dir = tempfile::tempdir().unwrap();
-    small_hot_cold_run(dir.path(), "r", &["--save-every", "2"]);
-    let m = manifest(&dir.path().join("r"));
+    let sb = Sandbox::new();
+    sb.small_hot_cold_run("r", &["--save-every", "2"]);
+    let m = sb.manifest("r");
     assert_eq!(m["status"], "complete");
     assert_eq!(m["extra"]["gases"], serde_json::json!(["hot", "cold"]));
 }
@@ -28,8 +23,8 @@ fn a_finished_run_says_complete() {
 /// the grid), no temporary file is left and every volume reads whole.
 #[test]
 fn an_interrupted_run_says_running_and_leaves_only_whole_files() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("r");
+    let sb = Sandbox::new();
+    let out = sb.join("r");
     let child = Command::new(env!("CARGO_BIN_EXE_smokelab"))
         .args([
             "run",
@@ -63,9 +58,11 @@ fn an_interrupted_run_says_running_and_leaves_only_whole_files() {
     assert_eq!(m["extra"]["grid"]["dims"], serde_json::json!([24, 24, 24]));
     // SAFETY: sending a signal to our own child process has no preconditions.
     assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
-    let o = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(130), "{err}");
+    let err = assert_exit(
+        &child.wait_with_output().unwrap(),
+        &["run", "(SIGINT)"],
+        130,
+    );
     assert!(err.contains("interrupted"), "{err}");
     // How to go on: this run wrote no checkpoint, so how to make one that does.
     assert!(
@@ -98,21 +95,13 @@ fn an_interrupted_run_says_running_and_leaves_only_whole_files() {
 /// exits 1 and rewrites its manifest as `failed`, naming the error.
 #[test]
 fn a_failed_run_says_failed_with_its_error() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("r");
-    let o = Command::new(env!("CARGO_BIN_EXE_smokelab"))
-        .args(["run", "hot-cold", "--res", "16", "--frames", "5"])
-        .args(["--gravity", "1e38", "--quiet", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert_eq!(
-        o.status.code(),
-        Some(1),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
+    let sb = Sandbox::new();
+    let args = ["run", "hot-cold", "--res", "16", "--frames", "5"];
+    sb.fails(
+        &[&args[..], &["--gravity", "1e38", "--quiet", "--out", "r"]].concat(),
+        1,
     );
-    let m = manifest(&out);
+    let m = sb.manifest("r");
     assert_eq!(m["status"], "failed");
     let error = m["extra"]["error"].as_str().unwrap();
     assert!(error.contains("non-finite at step 2"), "{error}");

@@ -7,7 +7,8 @@ mod common;
 use std::collections::HashMap;
 use std::path::Path;
 
-use common::smokelab;
+use common::Sandbox;
+use smokelab::density::DensityMode;
 
 /// `metrics.csv` as columns of numbers.
 fn metrics(path: &Path) -> HashMap<String, Vec<f64>> {
@@ -23,14 +24,13 @@ fn metrics(path: &Path) -> HashMap<String, Vec<f64>> {
     out
 }
 
-/// Run `smokelab run <args>` quietly into `dir/out` and read its metrics.
-fn run(dir: &Path, out: &str, args: &[&str]) -> HashMap<String, Vec<f64>> {
+/// Run `smokelab run <args>` quietly into `sb/out` and read its metrics.
+fn run(sb: &Sandbox, out: &str, args: &[&str]) -> HashMap<String, Vec<f64>> {
     let mut full = vec!["run"];
     full.extend_from_slice(args);
     full.extend_from_slice(&["--save-every", "0", "--quiet", "--out", out]);
-    let o = smokelab(&full, dir);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    metrics(&dir.join(out).join("metrics.csv"))
+    sb.ok(&full);
+    metrics(&sb.join(out).join("metrics.csv"))
 }
 
 /// Largest `|mass − (injected + advection + cleared)| / injected` over the
@@ -49,8 +49,8 @@ fn budget_residual(m: &HashMap<String, Vec<f64>>, gas: &str) -> f64 {
 
 #[test]
 fn every_mode_has_one_denominator_and_gridded_budgets_close() {
-    let dir = tempfile::tempdir().unwrap();
-    let hot_cold = |mode: &'static str| {
+    let sb = Sandbox::new();
+    let hot_cold = |mode: DensityMode| {
         vec![
             "hot-cold",
             "--res",
@@ -60,11 +60,11 @@ fn every_mode_has_one_denominator_and_gridded_budgets_close() {
             "--metrics-every",
             "10",
             "--density",
-            mode,
+            mode.name(),
         ]
     };
     let [gridded, gridless, selma] =
-        ["gridded", "gridless", "selma"].map(|mode| run(dir.path(), mode, &hot_cold(mode)));
+        DensityMode::ALL.map(|mode| run(&sb, mode.name(), &hot_cold(mode)));
 
     // One denominator: `<g>_injected` is `∫S dV · t` of the solid unit
     // sphere, 4π/3 · t, in every mode (the 8³-point cell averages at 20³
@@ -98,9 +98,9 @@ fn every_mode_has_one_denominator_and_gridded_budgets_close() {
     // QUICK is conservative: its advection term is round-off (measured
     // 5.9e-7 of the injected by step 40), where semi-Lagrangian's is not
     // (measured −4.7e-2).
-    let mut quick = hot_cold("gridded");
+    let mut quick = hot_cold(DensityMode::Gridded);
     quick.extend(["--advection", "quick"]);
-    let quick = run(dir.path(), "quick", &quick);
+    let quick = run(&sb, "quick", &quick);
     let last = |m: &HashMap<String, Vec<f64>>, c: &str| *m[c].last().unwrap();
     let injected = last(&quick, "hot_injected");
     let q = last(&quick, "hot_advection").abs() / injected;
@@ -111,7 +111,7 @@ fn every_mode_has_one_denominator_and_gridded_budgets_close() {
 
     // With obstacles the cleared dry cells enter the budget, which still closes.
     let slab = run(
-        dir.path(),
+        &sb,
         "slab",
         &[
             "slab-box",

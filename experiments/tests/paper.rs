@@ -2,7 +2,11 @@
 //! figures table names every registered experiment, and it is the paper
 //! `smokelab paper` makes from the committed results.
 
+mod common;
+
 use std::path::{Path, PathBuf};
+
+use common::{assert_ok, smokelab};
 
 fn paper() -> (PathBuf, String) {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../paper");
@@ -73,12 +77,7 @@ fn paper_builds_from_a_subfolder() {
     )
     .unwrap();
     std::fs::write(root.join("results/convergence/orders.md"), "| new |\n").unwrap();
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_smokelab"))
-        .arg("paper")
-        .current_dir(root.join("paper/sub"))
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_ok(&smokelab(&["paper"], &root.join("paper/sub")), &["paper"]);
     let md = std::fs::read_to_string(root.join("paper/paper.md")).unwrap();
     assert!(md.contains("| new |") && !md.contains("old"), "{md}");
 }

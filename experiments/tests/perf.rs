@@ -7,12 +7,12 @@
 
 mod common;
 
-use common::{num, smoke_experiment, smokelab, table};
+use common::{num, smoke_experiment, table, Sandbox};
 
 #[test]
 fn p1_smoke_measures_every_resolution_and_threads_agree_bitwise() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = smoke_experiment(dir.path(), "P-1");
+    let sb = Sandbox::new();
+    let out = smoke_experiment(sb.path(), "P-1");
     let rows = table(&out.join("data.csv"));
     let res: Vec<f64> = rows.iter().map(|r| num(r, "res")).collect();
     assert_eq!(res, [16.0, 32.0]);
@@ -46,8 +46,7 @@ fn p1_smoke_measures_every_resolution_and_threads_agree_bitwise() {
             );
         }
     }
-    let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let m = common::manifest(&out);
     assert_eq!(m["extra"]["bitwise_equal_1_vs_2_threads"], true);
     assert!(m["extra"]["peers"].as_str().unwrap().starts_with("absent"));
     assert!(m["extra"]["load_before"].is_string() && m["extra"]["load_after"].is_string());
@@ -79,7 +78,7 @@ fn p1_smoke_measures_every_resolution_and_threads_agree_bitwise() {
 
 #[test]
 fn p1_refuses_a_bad_peers_python_with_exit_2_and_writes_nothing() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     for (id, python) in [
         ("P-1", "/nonexistent/python"),
         // A program that runs but is not a Python with the peers' modules.
@@ -87,21 +86,8 @@ fn p1_refuses_a_bad_peers_python_with_exit_2_and_writes_nothing() {
         // --peers belongs to P-1 only.
         ("C-1", "/bin/false"),
     ] {
-        let o = smokelab(
-            &[
-                "experiment",
-                id,
-                "--smoke",
-                "--quiet",
-                "--out",
-                "o",
-                "--peers",
-                python,
-            ],
-            dir.path(),
-        );
-        assert_eq!(o.status.code(), Some(2), "{id} {python}: {o:?}");
-        assert!(String::from_utf8_lossy(&o.stderr).contains("--peers"));
-        assert!(!dir.path().join("o").exists());
+        let args = ["experiment", id, "--smoke", "--quiet", "--out", "o"];
+        sb.refused(&[&args[..], &["--peers", python]].concat(), &["--peers"]);
+        assert!(!sb.join("o").exists());
     }
 }

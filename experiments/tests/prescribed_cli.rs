@@ -4,8 +4,10 @@
 
 mod common;
 
-use common::{num, smokelab, table};
+use common::{num, table, Sandbox};
 use ndarray::Array3;
+use smokelab::advection::Scheme;
+use smokelab::density::DensityMode;
 
 /// A smooth blob on `n`³ cells of the unit cube, as f64.
 fn blob(n: usize) -> Array3<f64> {
@@ -22,46 +24,38 @@ fn blob(n: usize) -> Array3<f64> {
 /// 2) where the gridded schemes do not.
 #[test]
 fn every_mode_and_scheme_runs_and_measures_against_the_exact_solution() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let sb = Sandbox::new();
+    let d = sb.path();
     let mut l1 = std::collections::HashMap::new();
     for scenario in ["deformation", "zalesak"] {
-        for mode in ["gridded", "gridless", "selma"] {
-            for scheme in ["sl", "quick", "maccormack"] {
+        for mode in DensityMode::ALL.map(DensityMode::name) {
+            for scheme in Scheme::ALL.map(Scheme::name) {
                 let out = format!("{scenario}-{mode}-{scheme}");
                 let (period, frames, dt, save) = match scenario {
                     "deformation" => ("3", "48", "0.0625", "24"),
                     _ => ("12", "12", "1", "6"),
                 };
-                let o = smokelab(
-                    &[
-                        "run",
-                        scenario,
-                        "--res",
-                        "16",
-                        "--frames",
-                        frames,
-                        "--dt",
-                        dt,
-                        "--period",
-                        period,
-                        "--density",
-                        mode,
-                        "--advection",
-                        scheme,
-                        "--save-every",
-                        save,
-                        "--quiet",
-                        "--out",
-                        &out,
-                    ],
-                    d,
-                );
-                assert!(
-                    o.status.success(),
-                    "{out}: {}",
-                    String::from_utf8_lossy(&o.stderr)
-                );
+                sb.ok(&[
+                    "run",
+                    scenario,
+                    "--res",
+                    "16",
+                    "--frames",
+                    frames,
+                    "--dt",
+                    dt,
+                    "--period",
+                    period,
+                    "--density",
+                    mode,
+                    "--advection",
+                    scheme,
+                    "--save-every",
+                    save,
+                    "--quiet",
+                    "--out",
+                    &out,
+                ]);
                 let rows = table(&d.join(&out).join("exact.csv"));
                 assert_eq!(rows.len(), 2, "{out}: a row per saved frame");
                 // Half a period: no exact solution; a full one: the initial field.
@@ -78,7 +72,7 @@ fn every_mode_and_scheme_runs_and_measures_against_the_exact_solution() {
     println!("{l1:#?}");
     let gl = l1["deformation-gridless-sl"];
     assert!(gl < 0.1, "gridless return error {gl}");
-    for scheme in ["sl", "quick", "maccormack"] {
+    for scheme in Scheme::ALL.map(Scheme::name) {
         let g = l1[&format!("deformation-gridded-{scheme}")];
         assert!(g > 5.0 * gl, "{scheme}: gridded {g} vs gridless {gl}");
     }
@@ -90,8 +84,8 @@ fn every_mode_and_scheme_runs_and_measures_against_the_exact_solution() {
 /// naming both shapes, and nothing is written.
 #[test]
 fn initial_density_from_a_file_with_its_shape_checked() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let sb = Sandbox::new();
+    let d = sb.path();
     // Asymmetric, so that a transposed read would show.
     let file = Array3::from_shape_fn((16, 16, 16), |(k, j, i)| {
         blob(16)[[k, j, i]] * (1.0 + 0.5 * i as f64 / 16.0) + 0.01 * k as f64
@@ -101,27 +95,23 @@ fn initial_density_from_a_file_with_its_shape_checked() {
     ndarray_npy::write_npy(d.join("small.npy"), &blob(12)).unwrap();
     for name in ["blob.npy", "blob32.npy"] {
         let out = format!("run-{name}");
-        let o = smokelab(
-            &[
-                "run",
-                "deformation",
-                "--res",
-                "16",
-                "--frames",
-                "1",
-                "--dt",
-                "1e-6",
-                "--initial",
-                name,
-                "--save-every",
-                "1",
-                "--quiet",
-                "--out",
-                &out,
-            ],
-            d,
-        );
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        sb.ok(&[
+            "run",
+            "deformation",
+            "--res",
+            "16",
+            "--frames",
+            "1",
+            "--dt",
+            "1e-6",
+            "--initial",
+            name,
+            "--save-every",
+            "1",
+            "--quiet",
+            "--out",
+            &out,
+        ]);
         let saved: Array3<f32> =
             ndarray_npy::read_npy(d.join(&out).join("density_0001.npy")).unwrap();
         let worst = saved
@@ -133,7 +123,7 @@ fn initial_density_from_a_file_with_its_shape_checked() {
             "{name}: saved density differs from the file by {worst}"
         );
     }
-    let o = smokelab(
+    let err = sb.fails(
         &[
             "run",
             "deformation",
@@ -145,10 +135,8 @@ fn initial_density_from_a_file_with_its_shape_checked() {
             "--out",
             "refused",
         ],
-        d,
+        2,
     );
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
         err.contains("[12, 12, 12]") && err.contains("(16, 16, 16)"),
         "{err}"
@@ -166,27 +154,23 @@ fn initial_density_from_a_file_with_its_shape_checked() {
 /// refused with exit 2 naming the value.
 #[test]
 fn taylor_green_measures_the_solver_against_the_exact_vortex() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    let o = smokelab(
-        &[
-            "run",
-            "taylor-green",
-            "--res",
-            "16",
-            "--frames",
-            "8",
-            "--advection",
-            "maccormack",
-            "--save-every",
-            "4",
-            "--quiet",
-            "--out",
-            "tg",
-        ],
-        d,
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sb = Sandbox::new();
+    let d = sb.path();
+    sb.ok(&[
+        "run",
+        "taylor-green",
+        "--res",
+        "16",
+        "--frames",
+        "8",
+        "--advection",
+        "maccormack",
+        "--save-every",
+        "4",
+        "--quiet",
+        "--out",
+        "tg",
+    ]);
     let rows = table(&d.join("tg/exact.csv"));
     assert_eq!(rows.len(), 2, "rows at frames 4 and 8");
     let (nu, k) = (0.05, 1.0);
@@ -215,7 +199,7 @@ fn taylor_green_measures_the_solver_against_the_exact_vortex() {
         ("--amplitude", "0", "amplitude"),
         ("--nu", "-1", "nu"),
     ] {
-        let o = smokelab(
+        let err = sb.fails(
             &[
                 "run",
                 "taylor-green",
@@ -225,10 +209,8 @@ fn taylor_green_measures_the_solver_against_the_exact_vortex() {
                 "--out",
                 "bad",
             ],
-            d,
+            2,
         );
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{flag} {value}: {err}");
         assert!(err.contains(named), "{flag} {value}: {err}");
     }
 }

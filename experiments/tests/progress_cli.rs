@@ -6,7 +6,7 @@ mod common;
 use std::path::Path;
 use std::process::Command;
 
-use common::{small_hot_cold_run, smokelab};
+use common::Sandbox;
 
 /// Run `smokelab <args>` on a pseudo-terminal (util-linux `script`) in
 /// `cwd` and return everything it drew there.
@@ -24,9 +24,9 @@ fn on_terminal(args: &str, cwd: &Path) -> String {
 
 #[test]
 fn render_and_noise_show_a_bar_with_eta_only_on_a_terminal_without_quiet() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    small_hot_cold_run(d, "r", &["--save-every", "4"]);
+    let sb = Sandbox::new();
+    let d = sb.path();
+    sb.small_hot_cold_run("r", &["--save-every", "4"]);
     for (unit, args) in [
         (
             "density samples",
@@ -44,8 +44,7 @@ fn render_and_noise_show_a_bar_with_eta_only_on_a_terminal_without_quiet() {
         let quiet = on_terminal(&command("quiet", "--quiet"), d);
         assert!(!quiet.contains("ETA"), "{args} --quiet drew: {quiet}");
         let piped = command("piped", "");
-        let o = smokelab(&piped.split_whitespace().collect::<Vec<_>>(), d);
-        assert!(o.status.success(), "{piped}");
+        let o = sb.ok(&piped.split_whitespace().collect::<Vec<_>>());
         assert!(
             o.stderr.is_empty(),
             "{piped}: stderr is not a terminal, yet it got {}",

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{small_hot_cold_run, smokelab};
+use common::Sandbox;
 use ndarray::Array3;
 use std::path::Path;
 
@@ -13,41 +13,36 @@ fn write_volume(path: &Path, shape: (usize, usize, usize)) {
 
 #[test]
 fn render_command_writes_exr_png_and_manifest() {
-    let dir = tempfile::tempdir().unwrap();
-    let (hot, cold) = (dir.path().join("hot.npy"), dir.path().join("cold.npy"));
+    let sb = Sandbox::new();
+    let (hot, cold) = (sb.join("hot.npy"), sb.join("cold.npy"));
     write_volume(&hot, (8, 8, 8));
     write_volume(&cold, (8, 8, 8));
-    let out = dir.path().join("out");
-    let o = smokelab(
-        &[
-            "render",
-            "--density",
-            hot.to_str().unwrap(),
-            "--density",
-            cold.to_str().unwrap(),
-            "--image",
-            "32x24",
-            "--camera",
-            "-5,12,20",
-            "--out",
-            out.to_str().unwrap(),
-        ],
-        Path::new("."),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = sb.join("out");
+    sb.ok(&[
+        "render",
+        "--density",
+        hot.to_str().unwrap(),
+        "--density",
+        cold.to_str().unwrap(),
+        "--image",
+        "32x24",
+        "--camera",
+        "-5,12,20",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     let png = image::open(out.join("render.png")).unwrap();
     assert_eq!((png.width(), png.height()), (32, 24));
     assert!(out.join("render.exr").is_file());
-    let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let m = common::manifest(&out);
     assert!(m["extra"]["samples"].as_u64().unwrap() > 0);
     assert_eq!(m["config"]["scene"]["volumes"].as_array().unwrap().len(), 2);
 }
 
 #[test]
 fn render_command_rejects_bad_input_with_exit_2_and_writes_nothing() {
-    let dir = tempfile::tempdir().unwrap();
-    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let sb = Sandbox::new();
+    let p = |n: &str| sb.join(n).to_str().unwrap().to_string();
     write_volume(Path::new(&p("a.npy")), (8, 8, 8));
     write_volume(Path::new(&p("b.npy")), (8, 8, 6));
     std::fs::write(p("junk.npy"), b"not a numpy file").unwrap();
@@ -89,14 +84,7 @@ fn render_command_rejects_bad_input_with_exit_2_and_writes_nothing() {
             "B" => b.as_str(),
             s => s,
         }));
-        let o = smokelab(&full, Path::new("."));
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(
-            o.status.code(),
-            Some(2),
-            "{what}: exit {:?}, stderr {err}",
-            o.status
-        );
+        let err = sb.fails(&full, 2);
         assert_eq!(err.trim().lines().count(), 1, "{what}: not one line: {err}");
         assert!(err.starts_with("error:"), "{what}: {err}");
         assert!(!Path::new(&out).exists(), "{what}: wrote {out}");
@@ -105,32 +93,28 @@ fn render_command_rejects_bad_input_with_exit_2_and_writes_nothing() {
 
 #[test]
 fn run_with_render_writes_render_frames_and_rejects_bad_render_flags() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("run");
-    let o = smokelab(
-        &[
-            "run",
-            "hot-cold",
-            // 10³: the default sources cover cell centres (at 8³ they cover
-            // none, and the run is refused).
-            "--res",
-            "10",
-            "--frames",
-            "4",
-            "--save-every",
-            "2",
-            "--render",
-            "--render-every",
-            "4",
-            "--image",
-            "24x16",
-            "--quiet",
-            "--out",
-            out.to_str().unwrap(),
-        ],
-        Path::new("."),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sb = Sandbox::new();
+    let out = sb.join("run");
+    sb.ok(&[
+        "run",
+        "hot-cold",
+        // 10³: the default sources cover cell centres (at 8³ they cover
+        // none, and the run is refused).
+        "--res",
+        "10",
+        "--frames",
+        "4",
+        "--save-every",
+        "2",
+        "--render",
+        "--render-every",
+        "4",
+        "--image",
+        "24x16",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(out.join("render_0004.png").is_file() && out.join("render_0004.exr").is_file());
     assert!(
         !out.join("render_0002.png").exists(),
@@ -138,11 +122,10 @@ fn run_with_render_writes_render_frames_and_rejects_bad_render_flags() {
     );
     let png = image::open(out.join("render_0004.png")).unwrap();
     assert_eq!((png.width(), png.height()), (24, 16));
-    let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let m = common::manifest(&out);
     assert_eq!(m["extra"]["renders"][0]["frame"], 4);
 
-    let bad = dir.path().join("bad");
+    let bad = sb.join("bad");
     for args in [
         vec!["--render", "--image", "0x16"],
         vec!["--render", "--march-step", "-1"],
@@ -151,9 +134,7 @@ fn run_with_render_writes_render_frames_and_rejects_bad_render_flags() {
         let mut full = vec!["run", "hot-cold", "--res", "10", "--frames", "2", "--quiet"];
         full.extend(args.iter().copied());
         full.extend(["--out", bad.to_str().unwrap()]);
-        let o = smokelab(&full, Path::new("."));
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        let err = sb.fails(&full, 2);
         assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
         assert!(!bad.exists(), "{args:?} wrote {}", bad.display());
     }
@@ -164,19 +145,14 @@ fn run_with_render_writes_render_frames_and_rejects_bad_render_flags() {
 /// the run's `--size` would; an explicit `--size` overrides the run's.
 #[test]
 fn render_takes_the_box_and_the_gases_from_a_run_folder() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let sb = Sandbox::new();
+    let d = sb.path();
     // A box of edge 5, not the default 10: the run's geometry must be used.
-    small_hot_cold_run(d, "r", &["--size", "5", "--save-every", "2"]);
+    sb.small_hot_cold_run("r", &["--size", "5", "--save-every", "2"]);
     let render = |name: &str, args: &[&str]| {
         let mut full = vec!["render", "--image", "16x12", "--out", name];
         full.extend_from_slice(args);
-        let o = smokelab(&full, d);
-        assert!(
-            o.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
+        sb.ok(&full);
         std::fs::read(d.join(name).join("render.exr")).unwrap()
     };
     let files = |frame: &str| ["hot", "cold"].map(|g| format!("r/{g}_{frame}.npy"));
@@ -197,8 +173,7 @@ fn render_takes_the_box_and_the_gases_from_a_run_folder() {
     let mut frame2 = vec!["--density", &hot2, "--density", &cold2];
     frame2.extend(["--size", "5"]);
     assert_eq!(render("f", &["r", "--frame", "2"]), render("g", &frame2));
-    let m: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(d.join("a/manifest.json")).unwrap()).unwrap();
+    let m = sb.manifest("a");
     assert_eq!(
         m["config"]["scene"]["bounds"]["cell"],
         serde_json::json!(0.5)
@@ -212,9 +187,9 @@ fn render_takes_the_box_and_the_gases_from_a_run_folder() {
 /// Bad run folders and frames: exit 2, one line naming the value, nothing written.
 #[test]
 fn render_from_a_run_rejects_bad_folders_and_frames() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    small_hot_cold_run(d, "r", &["--save-every", "2"]);
+    let sb = Sandbox::new();
+    let d = sb.path();
+    sb.small_hot_cold_run("r", &["--save-every", "2"]);
     for (args, needle) in [
         (&["r", "--frame", "3"][..], "its saved frames are 2, 4"),
         (&["missing"][..], "run folder missing cannot be read"),
@@ -231,9 +206,7 @@ fn render_from_a_run_rejects_bad_folders_and_frames() {
     ] {
         let mut full = vec!["render", "--out", "out"];
         full.extend_from_slice(args);
-        let o = smokelab(&full, d);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        let err = sb.fails(&full, 2);
         assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
         assert!(err.contains(needle), "{args:?}: {err}");
         assert!(!d.join("out").exists(), "{args:?} wrote out");

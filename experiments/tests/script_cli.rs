@@ -6,7 +6,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{num, smokelab, table};
+use common::{num, table, Sandbox};
 use ndarray::Array3;
 
 fn script(name: &str) -> PathBuf {
@@ -34,47 +34,33 @@ fn relative_difference(a: &Array3<f32>, b: &Array3<f32>) -> f64 {
     diff / scale
 }
 
-/// Run `smokelab script FILE args…` in `dir`; its output.
-fn run_script(dir: &Path, file: &Path, args: &[&str]) -> std::process::Output {
-    let mut all = vec!["script", file.to_str().unwrap()];
-    all.extend_from_slice(args);
-    smokelab(&all, dir)
-}
-
-fn ok(o: &std::process::Output) {
-    assert!(
-        o.status.success(),
-        "exit {:?}: {}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stderr)
-    );
+/// `smokelab script FILE args…` in `sb`, checked to succeed; its output.
+fn run_script(sb: &Sandbox, file: &Path, args: &[&str]) -> std::process::Output {
+    sb.ok(&[&["script", file.to_str().unwrap()], args].concat())
 }
 
 #[test]
 fn hot_cold_script_reproduces_run_hot_cold() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    ok(&smokelab(
-        &[
-            "run",
-            "hot-cold",
-            "--res",
-            "32",
-            "--frames",
-            "20",
-            "--save-every",
-            "20",
-            // The script's cadence of the fine measures.
-            "--metrics-every",
-            "10",
-            "--quiet",
-            "--out",
-            "run",
-        ],
-        d,
-    ));
-    ok(&run_script(
-        d,
+    let sb = Sandbox::new();
+    let d = sb.path();
+    sb.ok(&[
+        "run",
+        "hot-cold",
+        "--res",
+        "32",
+        "--frames",
+        "20",
+        "--save-every",
+        "20",
+        // The script's cadence of the fine measures.
+        "--metrics-every",
+        "10",
+        "--quiet",
+        "--out",
+        "run",
+    ]);
+    run_script(
+        &sb,
         &script("hot_cold.rhai"),
         &[
             "--set",
@@ -86,7 +72,7 @@ fn hot_cold_script_reproduces_run_hot_cold() {
             "--out",
             "script",
         ],
-    ));
+    );
     for name in ["hot", "cold", "u", "v", "w"] {
         let f = format!("{name}_0020.npy");
         let (a, b) = (
@@ -169,26 +155,23 @@ fn hot_cold_script_reproduces_run_hot_cold() {
 /// and `t_step`.
 #[test]
 fn script_metrics_columns_follow_the_runs() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    ok(&smokelab(
-        &[
-            "run",
-            "hot-cold",
-            "--res",
-            "8",
-            "--frames",
-            "1",
-            "--save-every",
-            "0",
-            "--quiet",
-            "--out",
-            "run",
-        ],
-        d,
-    ));
-    ok(&run_script(
-        d,
+    let sb = Sandbox::new();
+    let d = sb.path();
+    sb.ok(&[
+        "run",
+        "hot-cold",
+        "--res",
+        "8",
+        "--frames",
+        "1",
+        "--save-every",
+        "0",
+        "--quiet",
+        "--out",
+        "run",
+    ]);
+    run_script(
+        &sb,
         &script("hot_cold.rhai"),
         &[
             "--set",
@@ -200,7 +183,7 @@ fn script_metrics_columns_follow_the_runs() {
             "--out",
             "script",
         ],
-    ));
+    );
     let header = |p: &str| -> Vec<String> {
         let text = std::fs::read_to_string(d.join(p)).unwrap();
         text.lines()
@@ -243,31 +226,28 @@ fn script_metrics_columns_follow_the_runs() {
 /// viscosity is not a no-op.
 #[test]
 fn hot_cold_script_closed_box_and_viscosity_reproduce_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    ok(&smokelab(
-        &[
-            "run",
-            "hot-cold",
-            "--res",
-            "16",
-            "--frames",
-            "10",
-            "--save-every",
-            "10",
-            "--box",
-            "closed",
-            "--nu",
-            "0.05",
-            "--quiet",
-            "--out",
-            "run",
-        ],
-        d,
-    ));
+    let sb = Sandbox::new();
+    let d = sb.path();
+    sb.ok(&[
+        "run",
+        "hot-cold",
+        "--res",
+        "16",
+        "--frames",
+        "10",
+        "--save-every",
+        "10",
+        "--box",
+        "closed",
+        "--nu",
+        "0.05",
+        "--quiet",
+        "--out",
+        "run",
+    ]);
     for (out, nu) in [("script", "nu=0.05"), ("inviscid", "nu=0.0")] {
-        ok(&run_script(
-            d,
+        run_script(
+            &sb,
             &script("hot_cold.rhai"),
             &[
                 "--set",
@@ -283,7 +263,7 @@ fn hot_cold_script_closed_box_and_viscosity_reproduce_run() {
                 "--out",
                 out,
             ],
-        ));
+        );
     }
     for name in ["hot", "cold", "u", "v", "w"] {
         let f = format!("{name}_0010.npy");
@@ -313,8 +293,8 @@ fn hot_cold_script_closed_box_and_viscosity_reproduce_run() {
 /// reproduces `run hot-cold --advection quick`; QUICK is not the SL step.
 #[test]
 fn hot_cold_script_quick_reproduces_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let sb = Sandbox::new();
+    let d = sb.path();
     let sets = [
         "--set",
         "res=16",
@@ -323,28 +303,25 @@ fn hot_cold_script_quick_reproduces_run() {
         "--set",
         "save_every=10",
     ];
-    ok(&smokelab(
-        &[
-            "run",
-            "hot-cold",
-            "--res",
-            "16",
-            "--frames",
-            "10",
-            "--save-every",
-            "10",
-            "--advection",
-            "quick",
-            "--quiet",
-            "--out",
-            "run",
-        ],
-        d,
-    ));
+    sb.ok(&[
+        "run",
+        "hot-cold",
+        "--res",
+        "16",
+        "--frames",
+        "10",
+        "--save-every",
+        "10",
+        "--advection",
+        "quick",
+        "--quiet",
+        "--out",
+        "run",
+    ]);
     for (out, scheme) in [("script", "advection=quick"), ("sl", "advection=sl")] {
         let mut args = sets.to_vec();
         args.extend(["--set", scheme, "--out", out]);
-        ok(&run_script(d, &script("hot_cold.rhai"), &args));
+        run_script(&sb, &script("hot_cold.rhai"), &args);
     }
     for name in ["hot", "cold", "u", "v", "w"] {
         let f = format!("{name}_0010.npy");
@@ -384,8 +361,8 @@ fn l2_relative(a: &Array3<f32>, b: &Array3<f32>) -> f64 {
 /// the library injects on a forward-tracked lattice (the script's header).
 #[test]
 fn selma_script_is_nearer_the_library_selma_than_the_gridded_run() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let sb = Sandbox::new();
+    let d = sb.path();
     let common = [
         "--res",
         "32",
@@ -398,10 +375,10 @@ fn selma_script_is_nearer_the_library_selma_than_the_gridded_run() {
     for (mode, out) in [("selma", "lib"), ("gridded", "grid")] {
         let mut args = vec!["run", "hot-cold", "--density", mode, "--out", out];
         args.extend(common);
-        ok(&smokelab(&args, d));
+        sb.ok(&args);
     }
     let o = run_script(
-        d,
+        &sb,
         &script("selma.rhai"),
         &[
             "--set",
@@ -414,7 +391,6 @@ fn selma_script_is_nearer_the_library_selma_than_the_gridded_run() {
             "script",
         ],
     );
-    ok(&o);
     // Measured: re-anchored at steps 42 and 58 (deformation > 2 cells).
     let anchors = String::from_utf8_lossy(&o.stdout)
         .matches("re-anchored")
@@ -469,16 +445,16 @@ fn every_shipped_script_runs_at_smoke_size() {
     let mut listed: Vec<String> = smoke.iter().map(|(n, _)| n.to_string()).collect();
     listed.sort();
     assert_eq!(shipped, listed, "every shipped script has a smoke run here");
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     for (name, sets) in smoke {
-        let out = dir.path().join(name.trim_end_matches(".rhai"));
+        let out = sb.join(name.trim_end_matches(".rhai"));
         let mut args: Vec<&str> = sets.iter().flat_map(|s| ["--set", *s]).collect();
         args.extend(["--out", out.to_str().unwrap()]);
-        ok(&run_script(dir.path(), &script(name), &args));
+        run_script(&sb, &script(name), &args);
         let m = std::fs::read_to_string(out.join("manifest.json")).unwrap();
         assert!(m.contains("\"complete\""), "{name}: {m}");
     }
-    let out = |s: &str| dir.path().join(s);
+    let out = |s: &str| sb.join(s);
     // The scripts' own cumulo and cuts are the library's field graphs.
     for (d, a, b) in [
         ("cumulo", "cloud", "cloud_library"),
@@ -549,8 +525,8 @@ fn every_shipped_script_runs_at_smoke_size() {
     // share of the gas inside it after 20 steps at 16³, with the rule and
     // without. Measured: 1.4e-4 with, 3.6e-3 without (26× less).
     let no_rule = out("boundary_off");
-    ok(&run_script(
-        dir.path(),
+    run_script(
+        &sb,
         &script("boundary.rhai"),
         &[
             "--set",
@@ -564,7 +540,7 @@ fn every_shipped_script_runs_at_smoke_size() {
             "--out",
             no_rule.to_str().unwrap(),
         ],
-    ));
+    );
     let inside = |d: &Path| {
         let (o, h) = (npy(&d.join("obstacle.npy")), npy(&d.join("hot_0020.npy")));
         let total: f64 = h.iter().map(|&v| v as f64).sum();
@@ -587,13 +563,11 @@ fn every_shipped_script_runs_at_smoke_size() {
     );
 }
 
-/// A script in `dir` with `text`; the run's exit code and stderr.
-fn failing(dir: &Path, text: &str, args: &[&str]) -> (Option<i32>, String) {
-    let f = dir.join("bad.rhai");
-    std::fs::write(&f, text).unwrap();
+/// A script in `sb` with `text`; the run's exit code and stderr.
+fn failing(sb: &Sandbox, text: &str, args: &[&str]) -> (Option<i32>, String) {
+    std::fs::write(sb.join("bad.rhai"), text).unwrap();
     // Each failure in one folder replaces the failed manifest of the last.
-    let args: Vec<&str> = args.iter().copied().chain(["--overwrite"]).collect();
-    let o = run_script(dir, &f, &args);
+    let o = sb.run(&[&["script", "bad.rhai"], args, &["--overwrite"]].concat());
     (
         o.status.code(),
         String::from_utf8_lossy(&o.stderr).into_owned(),
@@ -602,23 +576,21 @@ fn failing(dir: &Path, text: &str, args: &[&str]) -> (Option<i32>, String) {
 
 #[test]
 fn errors_name_the_file_line_column_and_types() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let sb = Sandbox::new();
     let out = ["--out", "o"];
     // Syntax error on line 2.
-    let (code, err) = failing(d, "let a = 1;\nlet b = (2 + ;\n", &out);
+    let (code, err) = failing(&sb, "let a = 1;\nlet b = (2 + ;\n", &out);
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("bad.rhai:2:"), "{err}");
     // Unknown function, line 3 column 9.
-    let (code, err) = failing(d, "let a = 1;\n\nlet b = nosuchfield(a);\n", &out);
+    let (code, err) = failing(&sb, "let a = 1;\n\nlet b = nosuchfield(a);\n", &out);
     assert_eq!(code, Some(2), "{err}");
     assert!(
         err.contains("bad.rhai:3:9") && err.contains("nosuchfield"),
         "{err}"
     );
     // Type mismatch: a cache plus a vector; both types named.
-    let (code, err) = failing(
-        d,
+    let (code, err) = failing(&sb,
         "let r = domain(8, 1.0);\nlet c = scalarcache(r, \"c\");\nlet x = c + vector(1.0, 0.0, 0.0);\n",
         &out,
     );
@@ -629,7 +601,7 @@ fn errors_name_the_file_line_column_and_types() {
     );
     // --set of a name the script has no param for.
     let (code, err) = failing(
-        d,
+        &sb,
         "let res = param(\"res\", 8);\n",
         &["--set", "frames=3", "--out", "o"],
     );
@@ -637,7 +609,7 @@ fn errors_name_the_file_line_column_and_types() {
     assert!(err.contains("frames") && err.contains("res"), "{err}");
     // A --set value of the wrong type.
     let (code, err) = failing(
-        d,
+        &sb,
         "let res = param(\"res\", 8);\n",
         &["--set", "res=big", "--out", "o"],
     );
@@ -650,11 +622,11 @@ fn errors_name_the_file_line_column_and_types() {
 
 #[test]
 fn a_script_cannot_write_outside_its_out_folder() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+    let sb = Sandbox::new();
+    let d = sb.path();
     for name in ["../escape", "/tmp/escape", "sub/dir", ""] {
         let text = format!("let r = domain(8, 1.0);\nwritenpy(\"{name}\", scalarfield(1.0), r);\n");
-        let (code, err) = failing(d, &text, &["--out", "o"]);
+        let (code, err) = failing(&sb, &text, &["--out", "o"]);
         assert_eq!(code, Some(2), "{name}: {err}");
         assert!(
             err.contains("bad.rhai:2:") && err.contains("not a file name"),
@@ -665,7 +637,7 @@ fn a_script_cannot_write_outside_its_out_folder() {
     assert!(!Path::new("/tmp/escape.npy").exists());
     // A plain name is written inside --out.
     let (code, err) = failing(
-        d,
+        &sb,
         "let r = domain(8, 1.0);\nwritenpy(\"ok\", scalarfield(1.0), r);\n",
         &["--out", "o"],
     );

@@ -3,20 +3,12 @@
 //! or unavailable one is refused before any work (exit 2, one line naming
 //! the valid values).
 
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
 
-use smokelab::simd::Isa;
-
-/// `smokelab args` in `cwd` with `SMOKELAB_SIMD=simd`.
-fn smokelab_on(simd: &str, args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_smokelab"))
-        .args(args)
-        .env("SMOKELAB_SIMD", simd)
-        .current_dir(cwd)
-        .output()
-        .expect("run smokelab")
-}
+use common::{assert_exit, assert_ok, smokelab_with, Sandbox};
+use smokelab::simd::{Isa, ENV};
 
 /// Every file under `dir` (relative path, bytes), sorted, but the manifest.
 fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
@@ -39,7 +31,7 @@ fn files(dir: &Path) -> Vec<(String, Vec<u8>)> {
 
 #[test]
 fn every_available_instruction_set_writes_the_same_fields_and_records_itself() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     let mut runs = vec![];
     for isa in Isa::available() {
         for (bt, kind) in [("rk2", "periodic"), ("rk3", "closed")] {
@@ -61,18 +53,10 @@ fn every_available_instruction_set_writes_the_same_fields_and_records_itself() {
                 "--out",
                 &out,
             ];
-            let o = smokelab_on(isa.name(), &args, dir.path());
-            assert!(
-                o.status.success(),
-                "{isa}: {}",
-                String::from_utf8_lossy(&o.stderr)
-            );
-            let manifest: serde_json::Value = serde_json::from_slice(
-                &std::fs::read(dir.path().join(&out).join("manifest.json")).unwrap(),
-            )
-            .unwrap();
-            assert_eq!(manifest["machine"]["simd"], isa.name(), "{out}");
-            let saved = files(&dir.path().join(&out));
+            let o = smokelab_with(&[(ENV, isa.name())], &args, sb.path());
+            assert_ok(&o, &args);
+            assert_eq!(sb.manifest(&out)["machine"]["simd"], isa.name(), "{out}");
+            let saved = files(&sb.join(&out));
             assert!(!saved.is_empty(), "{out}: no fields saved");
             runs.push((isa, bt, saved));
         }
@@ -85,7 +69,7 @@ fn every_available_instruction_set_writes_the_same_fields_and_records_itself() {
 
 #[test]
 fn an_unknown_or_unavailable_instruction_set_is_refused_with_the_valid_ones() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     let args = [
         "run", "hot-cold", "--res", "8", "--frames", "1", "--quiet", "--out", "x",
     ];
@@ -95,9 +79,8 @@ fn an_unknown_or_unavailable_instruction_set_is_refused_with_the_valid_ones() {
         cases.push((isa.name(), "this CPU cannot run"));
     }
     for (simd, needle) in cases {
-        let o = smokelab_on(simd, &args, dir.path());
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{simd}: {err}");
+        let o = smokelab_with(&[(ENV, simd)], &args, sb.path());
+        let err = assert_exit(&o, &[simd], 2);
         assert_eq!(
             err.lines().filter(|l| !l.trim().is_empty()).count(),
             1,
@@ -107,6 +90,6 @@ fn an_unknown_or_unavailable_instruction_set_is_refused_with_the_valid_ones() {
             err.contains(needle) && err.contains("SMOKELAB_SIMD"),
             "{err}"
         );
-        assert!(!dir.path().join("x").exists(), "{simd}: wrote output");
+        assert!(!sb.join("x").exists(), "{simd}: wrote output");
     }
 }

@@ -2,12 +2,13 @@
 
 mod common;
 
-use common::smokelab;
+use common::Sandbox;
+use smokelab::density::DensityMode;
 use smokelab::metrics::{isolated_mass_share, BLOB_CELLS, BLOB_LEVEL};
 
 #[test]
 fn cli_rejects_bad_boundary_input_and_runs_slab_box() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     for (args, needle) in [
         (
             &["run", "slab-box", "--boundary", "sticky", "--alpha", "1.5"][..],
@@ -23,34 +24,28 @@ fn cli_rejects_bad_boundary_input_and_runs_slab_box() {
     ] {
         let mut full = args.to_vec();
         full.extend(["--out", "bad"]);
-        let o = smokelab(&full, dir.path());
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        let err = sb.fails(&full, 2);
         assert!(err.contains(needle), "{args:?}: {err}");
-        assert!(!dir.path().join("bad").exists());
+        assert!(!sb.join("bad").exists());
     }
-    let o = smokelab(
-        &[
-            "run",
-            "slab-box",
-            "--res",
-            "26",
-            "--frames",
-            "3",
-            "--save-every",
-            "3",
-            "--boundary",
-            "sticky",
-            "--alpha",
-            "0.5",
-            "--out",
-            "r",
-            "--quiet",
-        ],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r = dir.path().join("r");
+    sb.ok(&[
+        "run",
+        "slab-box",
+        "--res",
+        "26",
+        "--frames",
+        "3",
+        "--save-every",
+        "3",
+        "--boundary",
+        "sticky",
+        "--alpha",
+        "0.5",
+        "--out",
+        "r",
+        "--quiet",
+    ]);
+    let r = sb.join("r");
     for f in [
         "density_0003.npy",
         "vel_0003.npy",
@@ -84,8 +79,8 @@ fn cli_rejects_bad_boundary_input_and_runs_slab_box() {
 
 #[test]
 fn cli_refuses_a_quick_step_beyond_the_cfl_bound_when_substeps_are_off() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(
+    let sb = Sandbox::new();
+    let err = sb.fails(
         &[
             "run",
             "hot-cold",
@@ -102,10 +97,8 @@ fn cli_refuses_a_quick_step_beyond_the_cfl_bound_when_substeps_are_off() {
             "r",
             "--quiet",
         ],
-        dir.path(),
+        1,
     );
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
         err.contains("sub-stepping is disabled") && err.contains("step 2"),
         "{err}"
@@ -114,13 +107,9 @@ fn cli_refuses_a_quick_step_beyond_the_cfl_bound_when_substeps_are_off() {
 
 #[test]
 fn experiment_06_6_smoke_writes_figure_and_data() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(
-        &["experiment", "06-6", "--smoke", "--quiet", "--out", "e"],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let e = dir.path().join("e");
+    let sb = Sandbox::new();
+    sb.ok(&["experiment", "06-6", "--smoke", "--quiet", "--out", "e"]);
+    let e = sb.join("e");
     for f in [
         "fig_6_6.png",
         "retained.png",
@@ -136,33 +125,34 @@ fn experiment_06_6_smoke_writes_figure_and_data() {
     assert_eq!(data.lines().count(), 8, "{data}");
 }
 
-/// `run slab-box --density gridless|selma` runs (exact obstacles by
-/// default), and the saved density is zero in every cell inside an obstacle.
+/// `run slab-box --density` with every mode that is not held on the grid
+/// (gridless, SELMA; gridded runs in the first test) runs (exact obstacles
+/// by default), and the saved density is zero in every cell inside an
+/// obstacle.
 #[test]
 fn slab_box_runs_gridless_and_selma_densities() {
-    let dir = tempfile::tempdir().unwrap();
-    for density in ["gridless", "selma"] {
+    let sb = Sandbox::new();
+    let walks = DensityMode::ALL
+        .into_iter()
+        .filter(|&m| m != DensityMode::Gridded);
+    for density in walks.map(DensityMode::name) {
         let out = format!("r_{density}");
-        let o = smokelab(
-            &[
-                "run",
-                "slab-box",
-                "--res",
-                "26",
-                "--frames",
-                "3",
-                "--save-every",
-                "3",
-                "--density",
-                density,
-                "--out",
-                &out,
-                "--quiet",
-            ],
-            dir.path(),
-        );
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let r = dir.path().join(&out);
+        sb.ok(&[
+            "run",
+            "slab-box",
+            "--res",
+            "26",
+            "--frames",
+            "3",
+            "--save-every",
+            "3",
+            "--density",
+            density,
+            "--out",
+            &out,
+            "--quiet",
+        ]);
+        let r = sb.join(&out);
         let rho: ndarray::Array3<f32> = ndarray_npy::read_npy(r.join("density_0003.npy")).unwrap();
         let level: ndarray::Array3<f32> = ndarray_npy::read_npy(r.join("obstacle.npy")).unwrap();
         assert!(rho.iter().any(|&x| x > 0.0), "{density}: no gas");
@@ -181,31 +171,27 @@ fn slab_box_runs_gridless_and_selma_densities() {
 /// under 2 % (0 % measured).
 #[test]
 fn slab_box_gridless_cell_average_has_no_isolated_blobs() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     let share = |samples: &str| {
-        let o = smokelab(
-            &[
-                "run",
-                "slab-box",
-                "--density",
-                "gridless",
-                "--res",
-                "26",
-                "--frames",
-                "80",
-                "--save-every",
-                "80",
-                "--cell-samples",
-                samples,
-                "--out",
-                samples,
-                "--quiet",
-            ],
-            dir.path(),
-        );
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        sb.ok(&[
+            "run",
+            "slab-box",
+            "--density",
+            "gridless",
+            "--res",
+            "26",
+            "--frames",
+            "80",
+            "--save-every",
+            "80",
+            "--cell-samples",
+            samples,
+            "--out",
+            samples,
+            "--quiet",
+        ]);
         let rho: ndarray::Array3<f32> =
-            ndarray_npy::read_npy(dir.path().join(samples).join("density_0080.npy")).unwrap();
+            ndarray_npy::read_npy(sb.join(samples).join("density_0080.npy")).unwrap();
         let d = smokelab::domain::Domain::cube(26, 1.0).unwrap();
         let grid = smokelab::grid::ScalarGrid::from_array(d, rho);
         isolated_mass_share(&grid, BLOB_LEVEL, BLOB_CELLS)

@@ -5,41 +5,31 @@
 
 mod common;
 
-use common::smokelab;
+use common::Sandbox;
 use glam::Vec3;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::{Scenario, SolverConfig};
 
 #[test]
 fn nonsense_offsets_are_refused_with_exit_code_2_and_nothing_written() {
-    let dir = tempfile::tempdir().unwrap();
+    let sb = Sandbox::new();
     for (scenario, offset, says) in [
         ("hot-cold", "6", "offset is 6"),
         ("hot-cold", "-5.5", "offset is -5.5"),
         ("hot-cold", "nan", "offset is NaN"),
         ("slab-box", "1", "applies to hot-cold only"),
     ] {
-        let o = smokelab(
+        let err = sb.fails(
             &[
                 "run", scenario, "--res", "8", "--frames", "1", "--offset", offset, "--quiet",
                 "--out", "o",
             ],
-            dir.path(),
-        );
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(
-            o.status.code(),
-            Some(2),
-            "{scenario} --offset {offset}: {err}"
+            2,
         );
         assert!(err.contains(says), "{scenario} --offset {offset}: {err}");
-        assert!(!dir.path().join("o").exists());
+        assert!(!sb.join("o").exists());
     }
-    let o = smokelab(
-        &["run", "hot-cold", "--offset", "0.5", "--print-config"],
-        dir.path(),
-    );
-    assert!(o.status.success());
+    let o = sb.ok(&["run", "hot-cold", "--offset", "0.5", "--print-config"]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("offset = 0.5"));
 }
 
@@ -94,13 +84,9 @@ fn with_the_offset_the_gases_pass_each_other_side_by_side_and_without_it_they_me
 
 #[test]
 fn s1_sees_the_quarter_cell_shift_and_only_it_at_smoke_size() {
-    let dir = tempfile::tempdir().unwrap();
-    let o = smokelab(
-        &["experiment", "S-1", "--smoke", "--quiet", "--out", "s"],
-        dir.path(),
-    );
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let out = dir.path().join("s");
+    let sb = Sandbox::new();
+    sb.ok(&["experiment", "S-1", "--smoke", "--quiet", "--out", "s"]);
+    let out = sb.join("s");
     for f in [
         "data.csv",
         "summary.csv",

@@ -2,12 +2,14 @@
 //! declares `mod common;` and uses what it needs.
 #![allow(dead_code)]
 
+pub mod order;
+
 use glam::Vec3;
 use smokelab::domain::Domain;
 use smokelab::field::VectorField;
-use smokelab::fit::{observed_order, ObservedOrder};
 use smokelab::grid::{BoxKind, FaceGrid};
 use smokelab::pressure::PressureSolver;
+use smokelab::simd::Isa;
 
 /// The Taylor–Green vortex `u = A sin x cos y, v = −A cos x sin y, w = 0`
 /// sampled on the faces of `domain` (a `2π`-periodic box solves the
@@ -75,21 +77,23 @@ pub fn hot_cold_after(
     sim
 }
 
-/// Fit the observed order of `errors` against `h`, print the table under
-/// `label`, and assert `|order − expected| ≤ band`.
-pub fn assert_order(
-    label: &str,
-    h: &[f64],
-    errors: &[f64],
-    expected: f64,
-    band: f64,
-) -> ObservedOrder {
-    let fit = observed_order(h, errors);
-    println!("{label}:\n{fit}");
-    assert!(
-        (fit.order - expected).abs() <= band,
-        "{label}: observed order {:.3}, expected {expected} ± {band}\n{fit}",
-        fit.order
-    );
-    fit
+/// Run `f` once with each instruction set this CPU has selected for the
+/// semi-Lagrangian kernel ([`Isa::select`], as `SMOKELAB_SIMD` would),
+/// narrowest first, then restore the one selected before.
+///
+/// The selection is the process's: a lock keeps two such loops of one test
+/// binary from switching it under each other. Other tests running at the
+/// same time may run on any width, which gives the same bits.
+pub fn on_every_isa(mut f: impl FnMut(Isa)) {
+    static LOCK: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _held = LOCK.lock().unwrap_or_else(|e| e.into_inner());
+    let before = Isa::selected();
+    for isa in Isa::available() {
+        isa.select().expect("an available instruction set");
+        assert_eq!(Isa::selected(), isa);
+        f(isa);
+    }
+    before
+        .select()
+        .expect("the instruction set selected before");
 }

@@ -1,7 +1,15 @@
-//! The committed results name the code that made them: every
-//! `results/**/manifest.json` records one commit, and a clean one
-//! (`experiment all` refuses to write `results/` from a dirty build); and
-//! what only the default-size runs can show is checked on them.
+//! **Data gate, not a code test**: it checks the committed `results/`, not
+//! the code. It passes when every `results/**/manifest.json` records one and
+//! the same clean commit (`experiment all` refuses to write `results/` from
+//! a dirty build), and when what only the default-size runs can show holds
+//! on the committed data (07-10's memory per gridless frame, 08-2's render
+//! time per chain length).
+//!
+//! When it fails after a code change, the code is not (necessarily) wrong:
+//! the committed results are stale or mixed. Regenerate them from one clean
+//! commit with `smokelab experiment all --overwrite` and commit `results/`;
+//! run this gate alone with
+//! `cargo test --release -p smokelab-app --test results_provenance`.
 
 mod common;
 use common::{num, table};
