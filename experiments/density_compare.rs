@@ -41,6 +41,17 @@ use smokelab::render::{look, render, RenderSettings, Scene};
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::simulation::Simulation;
 
+/// The `metrics.csv` columns of a step's own stages, whose sum is the wall
+/// time of a step.
+const STEP_STAGES: [&str; 6] = [
+    "t_advect",
+    "t_inject",
+    "t_density",
+    "t_force",
+    "t_project",
+    "t_boundary",
+];
+
 /// One density mode to run.
 pub(crate) struct ModeRun {
     /// Folder and legend name (`gridded`, `gridless`, `selma`, `selma-fine`).
@@ -423,12 +434,12 @@ pub(crate) fn plot_metrics(out: &Path, results: &[(String, PathBuf)], title: &st
         Plot::new(
             format!("{title}: wall time per step"),
             time_label,
-            "seconds (advect + density + force + project)",
+            "seconds (advect + inject + density + force + project + boundary)",
         )
         .log_y()
         .legend(LegendPosition::UpperLeft),
         &|t| {
-            let c: Vec<usize> = ["t_advect", "t_density", "t_force", "t_project"]
+            let c: Vec<usize> = STEP_STAGES
                 .iter()
                 .map(|n| t.index(n))
                 .collect::<Result<_>>()?;
@@ -487,7 +498,7 @@ pub(crate) struct SummaryRow {
     pub hot_grad: f64,
     /// Sub-grid energy fraction of the hot gas at the last frame.
     pub hot_subgrid: f64,
-    /// Wall seconds per step (advect + density + force + project), mean over the run.
+    /// Wall seconds per step ([`STEP_STAGES`]), mean over the run.
     pub mean_step_seconds: f64,
     /// The same, over the last tenth of the run.
     pub last_step_seconds: f64,
@@ -505,10 +516,7 @@ pub(crate) fn summarise(out: &Path, results: &[ModeResult]) -> Result<Vec<Summar
         let last = t.rows.last().context("empty metrics.csv")?;
         let c = |n: &str| t.index(n);
         let max = |i: usize| t.rows.iter().map(|r| r[i]).fold(0.0, f64::max);
-        let step: Vec<usize> = ["t_advect", "t_density", "t_force", "t_project"]
-            .iter()
-            .map(|n| c(n))
-            .collect::<Result<_>>()?;
+        let step: Vec<usize> = STEP_STAGES.iter().map(|n| c(n)).collect::<Result<_>>()?;
         let per_step: Vec<f64> = t
             .rows
             .iter()

@@ -416,7 +416,7 @@ fn warmed_up(n: usize) -> Result<(Simulation, LiftFaces, RgbImage)> {
         .with_boundary(Boundary::new(domain, &sphere, options)?);
     let lift = lift_weights(&sim);
     sim.velocity.slice_mut(0).fill(U);
-    sim.project();
+    sim.project()?;
     sim.apply_boundary();
     while sim.time() < WARM_UP - 0.5 * DT {
         step_lifting(&mut sim, &lift);

@@ -575,6 +575,8 @@ fn pressure_precision(
     pool.install(|| -> Result<()> {
         (0..warm).for_each(|_| sim.step());
         sim.advect()?;
+        sim.inject();
+        sim.clear_dry();
         sim.evaluate_densities();
         sim.add_buoyancy();
         Ok(())

@@ -43,6 +43,7 @@ use crate::checkpoint::{self, RunRecord};
 use crate::export::{write_frame_formats, Exchange, FrameVolumes, VdbFrames};
 use crate::frames::{FrameRecord, FrameRender};
 use crate::table::{field_names, Log};
+use smokelab::boundary::Boundary;
 use smokelab::density::probe::{DensityMeasures, DensityProbe};
 use smokelab::density::{DensityMode, DensityModel};
 use smokelab::domain::Domain;
@@ -51,7 +52,7 @@ use smokelab::io::vdb::VolumeGeometry;
 use smokelab::io::vtk::PvdCollection;
 use smokelab::io::{self, manifest::Manifest, preview};
 use smokelab::metrics::{self, SpectralShare};
-use smokelab::simulation::Simulation;
+use smokelab::simulation::{Gas, Simulation};
 use smokelab::timing::{timed, StageTimes};
 
 /// Which frames to write and how to report progress.
@@ -351,9 +352,11 @@ pub struct ObstacleColumns {
 #[derive(Default, Serialize)]
 struct StageColumns {
     t_advect: f64,
+    t_inject: f64,
     t_density: f64,
     t_force: f64,
     t_project: f64,
+    t_boundary: f64,
     t_output: f64,
     t_metrics: f64,
 }
@@ -362,9 +365,11 @@ impl From<StageTimes> for StageColumns {
     fn from(t: StageTimes) -> Self {
         Self {
             t_advect: t.advect,
+            t_inject: t.inject,
             t_density: t.density,
             t_force: t.force,
             t_project: t.project,
+            t_boundary: t.boundary,
             t_output: t.output,
             t_metrics: t.metrics,
         }
@@ -388,6 +393,121 @@ pub fn metric_columns(sim: &Simulation) -> Vec<String> {
     }
     cols.extend(field_names(&StageColumns::default()));
     cols
+}
+
+impl MetricsRow {
+    /// The row of `sim` after step `frame`: the per-step `measures`, the
+    /// `fine` ones on their cadence (`NaN` without), the gases' budgets
+    /// against their injection `t · rate` (`source_rates`, per gas), the
+    /// obstacles' leaks and solves, and the stage times.
+    fn measure(
+        sim: &Simulation,
+        frame: usize,
+        measures: &StepMeasures,
+        fine: Option<&FineMeasures>,
+        source_rates: &[f64],
+        times: StageTimes,
+    ) -> Self {
+        let div = measures.velocity.divergence;
+        let vel_mirror = measures.velocity.mirror;
+        let max_u = vel_mirror.max_norm;
+        let t = frame as f64 * sim.params.dt as f64;
+        let gases = (sim.gases.iter().zip(source_rates).enumerate())
+            .map(|(n, (g, rate))| GasColumns::measure(g, fine.map(|f| f.densities[n]), t * rate))
+            .collect();
+        let injected_total = t * source_rates.iter().sum::<f64>();
+        let obstacles =
+            (sim.boundary.as_ref()).map(|b| ObstacleColumns::measure(sim, b, injected_total));
+        Self {
+            step: StepColumns {
+                step: frame,
+                time: sim.time(),
+                max_u,
+                cfl: max_u * sim.params.dt / sim.domain().cell,
+                div_rms: div.rms,
+                div_max: div.max,
+                div_interp_rms: fine.map_or(f32::NAN, |f| f.div_interp.rms),
+                div_interp_max: fine.map_or(f32::NAN, |f| f.div_interp.max),
+                ke_top_octave: fine.map_or(f64::NAN, |f| f.ke_top_octave),
+            },
+            gases,
+            mirror_error: measures.mirror.into_iter().collect(),
+            flow: FlowColumns {
+                vel_mirror_error: vel_mirror.error,
+                density_bytes: sim.density_bytes(),
+                substeps: sim.advector().substeps(),
+            },
+            obstacles: obstacles.into_iter().collect(),
+            times: times.into(),
+        }
+    }
+}
+
+impl GasColumns {
+    /// Gas `g`'s columns: its fine measures `m` (`NaN` without) against the
+    /// mass `injected` so far; the budget terms of a gridded gas (`NaN`
+    /// for the others).
+    fn measure(g: &Gas, m: Option<DensityMeasures>, injected: f64) -> Self {
+        let on_grid = |v: f64| {
+            if g.model.mode() == DensityMode::Gridded {
+                v
+            } else {
+                f64::NAN
+            }
+        };
+        let mass = m.map_or(f64::NAN, |m| m.mass);
+        Self {
+            mass,
+            injected,
+            lost: injected - mass,
+            advection: on_grid(g.budget.advection),
+            cleared: on_grid(g.budget.cleared),
+            max: m.map_or(f64::NAN, |m| m.max),
+            grad: m.map_or(f64::NAN, |m| m.mean_gradient),
+            subgrid: m.map_or(f64::NAN, |m| m.subgrid_fraction),
+        }
+    }
+}
+
+impl ObstacleColumns {
+    /// The obstacles' columns of `sim` with boundary `b`, the gas retained
+    /// against `injected` (all gases).
+    fn measure(sim: &Simulation, b: &Boundary, injected: f64) -> Self {
+        let densities: Vec<_> = sim.gases.iter().map(|g| g.density()).collect();
+        let leak = b.leak(&sim.velocity, &densities);
+        let (iterations, residual) = sim.advector().face_projection_stats().unwrap_or((0, 0.0));
+        let cg = sim.cg_report();
+        Self {
+            div_fluid_rms: leak.div_fluid.rms,
+            div_fluid_max: leak.div_fluid.max,
+            closed_flux_max: leak.closed_flux_max,
+            obstacle_mass: leak.mass_inside,
+            obstacle_fraction: leak.mass_fraction,
+            retained: leak.mass_fluid / injected,
+            cg_iterations: cg.map_or(0, |c| c.iterations),
+            cg_residual: cg.map_or(f64::NAN, |c| c.residual),
+            face_cg_iterations: iterations,
+            face_div_rel: residual,
+        }
+    }
+}
+
+/// Take step `frame` of `sim`, or fail naming it (a refused step, or a
+/// velocity that became non-finite) and where the frames so far are.
+fn step(sim: &mut Simulation, frame: usize, out: &Path) -> Result<()> {
+    if let Err(e) = sim.try_step() {
+        bail!(
+            "step {frame}: {e}; frames written so far are in {}",
+            out.display()
+        );
+    }
+    if !sim.velocity.is_finite() {
+        bail!(
+            "velocity became non-finite at step {frame}; frames written so far are in {}",
+            out.display()
+        );
+    }
+    Ok(())
 }
 
 /// Step `sim` through `opts.frames` frames, writing into `opts.out`.
@@ -511,28 +631,24 @@ fn drive<C: Serialize>(
         let every = opts.metrics_every.max(1);
         let mut warned_cfl = false;
         for frame in first + 1..=opts.frames {
-            if let Err(e) = sim.try_step() {
-                bail!(
-                    "step {frame}: {e}; frames written so far are in {}",
-                    opts.out.display()
-                );
-            }
+            step(sim, frame, &opts.out)?;
             let mut times = sim.times;
-            let finite = sim.velocity.is_finite();
-            if !finite {
-                bail!(
-                    "velocity became non-finite at step {frame}; frames written so far are in {}",
-                    opts.out.display()
-                );
-            }
-            let StepMeasures { velocity, mirror } =
-                timed(&mut times.metrics, || StepMeasures::take(sim));
-            let (div, vel_mirror) = (velocity.divergence, velocity.mirror);
-            let max_u = vel_mirror.max_norm;
-            let cfl = max_u * sim.params.dt / sim.domain().cell;
             let measuring = frame % every == 0 || frame == opts.frames;
+            let saving = opts.save.contains(frame, opts.frames);
+            let render = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames));
+            let checkpoint = checkpoints
+                .filter(|c| c.every > 0 && (frame % c.every == 0 || frame == opts.frames));
+            // A prescribed step leaves gridless and SELMA densities at the
+            // cell centres to be evaluated where they are read (a forced
+            // step has evaluated them: then this is free); the per-step
+            // measures read them with two gases or obstacles.
+            let per_step = sim.gases.len() == 2 || sim.boundary.is_some();
+            if per_step || measuring || saving || render.is_some() || checkpoint.is_some() {
+                timed(&mut times.density, || sim.evaluate_densities());
+            }
+            let measures = timed(&mut times.metrics, || StepMeasures::take(sim));
             let fine = measuring.then(|| timed(&mut times.metrics, || probes.measure(sim)));
-            if opts.save.contains(frame, opts.frames) {
+            if saving {
                 timed(&mut times.output, || {
                     write_frame(sim, &opts.out, frame, opts.sample_res)?;
                     let exchange = Exchange {
@@ -545,98 +661,34 @@ fn drive<C: Serialize>(
                 summary.saved_frames.push(frame);
                 summary.previews.push(preview_path(&opts.out, frame));
             }
-            let density_bytes = sim.density_bytes();
-            if let Some(r) = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames)) {
+            if let Some(r) = render {
                 let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
                 summary.renders.push(record);
             }
-            let t = frame as f64 * sim.params.dt as f64;
-            let gases = sim
-                .gases
-                .iter()
-                .zip(&summary.source_rates)
-                .enumerate()
-                .map(|(n, (g, rate))| {
-                    let m = fine.as_ref().map(|f| f.densities[n]);
-                    let gridded = g.model.mode() == DensityMode::Gridded;
-                    let on_grid = |v: f64| if gridded { v } else { f64::NAN };
-                    let mass = m.map_or(f64::NAN, |m| m.mass);
-                    GasColumns {
-                        mass,
-                        injected: t * rate,
-                        lost: t * rate - mass,
-                        advection: on_grid(g.budget.advection),
-                        cleared: on_grid(g.budget.cleared),
-                        max: m.map_or(f64::NAN, |m| m.max),
-                        grad: m.map_or(f64::NAN, |m| m.mean_gradient),
-                        subgrid: m.map_or(f64::NAN, |m| m.subgrid_fraction),
-                    }
-                })
-                .collect();
-            let injected_total = t * summary.source_rates.iter().sum::<f64>();
-            let obstacles = sim.boundary.as_ref().map(|b| {
-                let densities: Vec<_> = sim.gases.iter().map(|g| g.density()).collect();
-                let leak = b.leak(&sim.velocity, &densities);
-                let (iterations, residual) =
-                    sim.advector().face_projection_stats().unwrap_or((0, 0.0));
-                let cg = sim.cg_report();
-                ObstacleColumns {
-                    div_fluid_rms: leak.div_fluid.rms,
-                    div_fluid_max: leak.div_fluid.max,
-                    closed_flux_max: leak.closed_flux_max,
-                    obstacle_mass: leak.mass_inside,
-                    obstacle_fraction: leak.mass_fraction,
-                    retained: leak.mass_fluid / injected_total,
-                    cg_iterations: cg.map_or(0, |c| c.iterations),
-                    cg_residual: cg.map_or(f64::NAN, |c| c.residual),
-                    face_cg_iterations: iterations,
-                    face_div_rel: residual,
-                }
-            });
-            csv.push(&MetricsRow {
-                step: StepColumns {
-                    step: frame,
-                    time: sim.time(),
-                    max_u,
-                    cfl,
-                    div_rms: div.rms,
-                    div_max: div.max,
-                    div_interp_rms: fine.as_ref().map_or(f32::NAN, |f| f.div_interp.rms),
-                    div_interp_max: fine.as_ref().map_or(f32::NAN, |f| f.div_interp.max),
-                    ke_top_octave: fine.as_ref().map_or(f64::NAN, |f| f.ke_top_octave),
-                },
-                gases,
-                mirror_error: mirror.into_iter().collect(),
-                flow: FlowColumns {
-                    vel_mirror_error: vel_mirror.error,
-                    density_bytes,
-                    substeps: sim.advector().substeps(),
-                },
-                obstacles: obstacles.into_iter().collect(),
-                times: times.into(),
-            })?;
+            let row = MetricsRow::measure(
+                sim,
+                frame,
+                &measures,
+                fine.as_ref(),
+                &summary.source_rates,
+                times,
+            );
+            csv.push(&row)?;
             // After the row, so that a checkpoint's metrics rows are all on
             // disk; after the last step too, so that a complete run resumes
             // from its last frame (`--resume --frames N`).
-            if let Some(c) = checkpoints.filter(|c| c.every > 0) {
-                if frame % c.every == 0 || frame == opts.frames {
-                    timed(&mut times.output, || {
-                        checkpoint::write(&opts.out, sim, &c.record)
-                    })?;
-                }
+            if let Some(c) = checkpoint {
+                timed(&mut times.output, || {
+                    checkpoint::write(&opts.out, sim, &c.record)
+                })?;
             }
-            let s = &mut summary.stage_seconds;
-            s.advect += times.advect;
-            s.density += times.density;
-            s.force += times.force;
-            s.project += times.project;
-            s.output += times.output;
-            s.metrics += times.metrics;
-            summary.final_mirror_error = mirror;
-            summary.final_density_bytes = density_bytes;
+            summary.stage_seconds += times;
+            summary.final_mirror_error = measures.mirror;
+            summary.final_density_bytes = row.flow.density_bytes;
             if let Some(f) = fine {
                 summary.final_measures = f.densities;
             }
+            let (cfl, max_u) = (row.step.cfl, row.step.max_u);
             if cfl > CFL_WARNING && !warned_cfl {
                 warned_cfl = true;
                 bar.suspend(|| {

@@ -12,19 +12,22 @@
 //! DESIGN.md "Velocity lives on faces"), the densities at the cell centres.
 //! `fftdivfree` is the exact pressure solve of [`PressureSolver`].
 //!
-//! [`Simulation::step`] is those lines in four verbs: [`Simulation::advect`]
-//! (every `advect(…, velocity, dt)` and `inject` above, each gas in its own
-//! representation — [`crate::density`]), [`Simulation::evaluate_densities`]
-//! (gridless and SELMA densities sampled at the cell centres for the
-//! force), [`Simulation::add_buoyancy`] and [`Simulation::project`],
-//! followed by [`Simulation::apply_boundary`] when there are obstacles
-//! (§6.3: with the exact method the projection is the obstacle-aware solve of
-//! [`crate::pressure::obstacles`]; with the notes' method eqs 6.6–6.7 follow
-//! the periodic projection). Gridded densities and the velocity move together
-//! through the chosen [`Advector`]: semi-Lagrangian in one sweep that traces
-//! each departure point once, or QUICK through face velocities frozen once.
-//! The densities are advected by the velocity of the start of the step, as
-//! in the script. Every buffer is allocated once in [`Simulation::new`].
+//! [`Simulation::try_step`] is those lines as verbs, each one call:
+//! [`Simulation::advect`] (every `advect(…, velocity, dt)` above, each gas
+//! in its own representation — [`crate::density`]), [`Simulation::inject`]
+//! (`+ inject(…, dt)`), [`Simulation::clear_dry`] (the densities' side of
+//! the obstacles), [`Simulation::evaluate_densities`] (gridless and SELMA
+//! densities sampled at the cell centres for the force),
+//! [`Simulation::add_buoyancy`], [`Simulation::project`] and
+//! [`Simulation::apply_boundary`] (§6.3: with the exact method the
+//! projection is the obstacle-aware solve of
+//! [`crate::pressure::obstacles`]; with the notes' method eqs 6.6–6.7
+//! follow the periodic projection). Gridded densities and the velocity move
+//! together through the chosen [`Advector`]: semi-Lagrangian in one sweep
+//! that traces each departure point once, or QUICK through face velocities
+//! frozen once. The densities are advected by the velocity of the start of
+//! the step, as in the script. Every buffer is allocated once in
+//! [`Simulation::new`].
 
 use std::sync::Arc;
 
@@ -35,7 +38,7 @@ use crate::boundary::{Boundary, ObstacleMethod};
 use crate::density::probe::cell_averages;
 use crate::density::{total_bytes, DensityModel, DensityOptions, DensityState, StepInput};
 use crate::domain::Domain;
-use crate::error::InputError;
+use crate::error::{check_non_negative, InputError};
 use crate::field::{Scalar, VectorField};
 use crate::forces;
 use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
@@ -114,7 +117,9 @@ impl Gas {
         }
     }
 
-    /// The density at the velocity grid's cell centres after the last step.
+    /// The density at the velocity grid's cell centres, as of the last
+    /// [`Simulation::evaluate_densities`] (which a forced step calls; after
+    /// a prescribed step, call it before reading a gridless or SELMA gas).
     pub fn density(&self) -> &ScalarGrid {
         self.model.density()
     }
@@ -174,6 +179,27 @@ pub struct StepParams {
     pub backtrace: Backtrace,
 }
 
+impl StepParams {
+    /// `Ok` when Δt and ν are finite numbers ≥ 0, else an error naming the
+    /// bad value.
+    pub fn check(&self) -> Result<(), InputError> {
+        check_non_negative("time step", self.dt)?;
+        check_non_negative("viscosity", self.viscosity)
+    }
+}
+
+/// Why [`Simulation::try_step`] refused a step; the state is then unchanged.
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    /// QUICK's CFL bound ([`CflError`]).
+    #[error(transparent)]
+    Cfl(#[from] CflError),
+    /// A time step or viscosity that is negative or not finite
+    /// ([`StepParams::check`]).
+    #[error(transparent)]
+    Params(#[from] InputError),
+}
+
 /// Velocity, gases and the planned projection for one run.
 ///
 /// A clone copies every grid but shares a gridless density's stored
@@ -200,6 +226,9 @@ pub struct Simulation {
     obstacle_projection: Option<ObstacleProjection>,
     /// A velocity given for all time ([`Self::with_prescribed_velocity`]).
     prescribed: Option<Arc<dyn PrescribedVelocity>>,
+    /// Whether every gas's [`Gas::density`] is that of its current state
+    /// ([`Self::evaluate_densities`]).
+    densities_evaluated: bool,
 }
 
 impl Simulation {
@@ -221,6 +250,7 @@ impl Simulation {
             ),
             obstacle_projection: None,
             prescribed: None,
+            densities_evaluated: true,
         }
     }
 
@@ -336,68 +366,63 @@ impl Simulation {
     }
 
     /// One time step: eqs 6.4, 6.5, the projection (6.3) and the boundary
-    /// rule (6.6/6.7).
+    /// rule (6.6/6.7), each stage's wall time in [`Self::times`]. A
+    /// prescribed velocity ([`Self::with_prescribed_velocity`]) is set on
+    /// the faces instead of being forced and projected, and the gases'
+    /// [`Gas::density`] is left for [`Self::evaluate_densities`] to update
+    /// when it is read.
     ///
     /// # Errors
-    /// A QUICK step that would break its CFL bound and may not be split into
+    /// A [`StepError`]: the parameters fail [`StepParams::check`], or a
+    /// QUICK step would break its CFL bound and may not be split into
     /// sub-steps; the state is then unchanged.
-    pub fn try_step(&mut self) -> Result<(), CflError> {
-        let mut times = StageTimes::default();
-        if let Some(flow) = self.prescribed.clone() {
-            let t = (self.step_index as f32 + 0.5) * self.params.dt;
-            self.velocity.write_field(&AtTime(&*flow, t));
-            timed(&mut times.advect, || self.advect())?;
-            timed(&mut times.density, || self.evaluate_densities());
-            self.step_index += 1;
-            self.times = times;
-            return Ok(());
+    pub fn try_step(&mut self) -> Result<(), StepError> {
+        self.params.check()?;
+        let mut t = StageTimes::default();
+        if let Some(flow) = &self.prescribed {
+            let time = (self.step_index as f32 + 0.5) * self.params.dt;
+            self.velocity.write_field(&AtTime(&**flow, time));
         }
-        timed(&mut times.advect, || self.advect())?;
-        timed(&mut times.density, || self.evaluate_densities());
-        timed(&mut times.force, || self.add_buoyancy());
-        timed(&mut times.project, || self.project());
-        timed(&mut times.project, || self.apply_boundary());
+        timed(&mut t.advect, || self.advect())?;
+        timed(&mut t.inject, || self.inject());
+        timed(&mut t.boundary, || self.clear_dry());
+        if self.prescribed.is_none() {
+            timed(&mut t.density, || self.evaluate_densities());
+            timed(&mut t.force, || self.add_buoyancy());
+            timed(&mut t.project, || self.project())?;
+            timed(&mut t.boundary, || self.apply_boundary());
+        }
         self.step_index += 1;
-        self.times = times;
+        self.times = t;
         Ok(())
     }
 
     /// [`Self::try_step`] for callers that cannot recover from a refused step.
     ///
     /// # Panics
-    /// With the [`CflError`] message if the step is refused.
+    /// With the [`StepError`] message if the step is refused.
     pub fn step(&mut self) {
         if let Err(e) = self.try_step() {
             panic!("step {}: {e}", self.step_index + 1);
         }
     }
 
-    /// Eqs 6.4–6.5, transport and injection: every gas and the velocity
-    /// itself moved by the velocity of the start of the step, and the sources
-    /// injected for Δt. Gridded densities and the velocity go through the
-    /// [`Advector`] together (semi-Lagrangian: `ρ ← ρ(x − uΔt)`, `u ← u(x − uΔt)`
-    /// sharing one backtrace per cell; QUICK: finite volumes through the same
-    /// frozen face velocities); gridless densities keep the velocity (eq 7.4)
-    /// and SELMA advects one map for all its gases (eq 8.8, [`crate::density::selma::step_group`]),
-    /// both with the semi-Lagrangian backtrace whatever the scheme. With exact obstacles a gridded density
-    /// holds nothing in the dry cells after the step
-    /// ([`crate::boundary::OpenFaces::clear_dry`]): what a backtrace carried
-    /// there is lost, and counted so by the retained mass. Each gridded
-    /// gas's [`MassBudget`] records what advection and clearing changed:
-    /// the totals before and after each (the advected total summed in the
-    /// injection's pass, [`crate::density::Gridded::step`], whose new total
-    /// is the next step's before).
+    /// Eqs 6.4–6.5, transport: every gas and the velocity itself moved by
+    /// the velocity of the start of the step. Gridded densities and the
+    /// velocity go through the [`Advector`] together (semi-Lagrangian:
+    /// `ρ ← ρ(x − uΔt)`, `u ← u(x − uΔt)` sharing one backtrace per cell;
+    /// QUICK: finite volumes through the same frozen face velocities), the
+    /// densities into their targets, which [`Self::inject`] takes; gridless
+    /// densities keep a shared snapshot of the velocity (eq 7.4) and SELMA
+    /// advects one map for all its gases (eq 8.8), both with the
+    /// semi-Lagrangian backtrace whatever the scheme
+    /// ([`DensityModel::advect_all`]). A prescribed velocity stays the one
+    /// the step moved the gases by.
     ///
     /// # Errors
     /// As [`Advector::advect`]; nothing is changed then.
     pub fn advect(&mut self) -> Result<(), CflError> {
         let p = self.params;
-        let faces = self
-            .obstacle_projection
-            .is_some()
-            .then(|| self.boundary.as_ref().map(|b| b.open_faces()))
-            .flatten();
-        let before: Vec<Option<f64>> = self.gases.iter().map(|g| g.model.gridded_total()).collect();
         let snapshot = self
             .gases
             .iter()
@@ -421,32 +446,65 @@ impl Simulation {
             dt: p.dt,
             backtrace: p.backtrace,
         };
-        let advected = DensityModel::step_all(
-            self.gases.iter_mut().map(|g| (&mut g.model, &g.source)),
-            &input,
-        );
-        for ((gas, before), advected) in self.gases.iter_mut().zip(before).zip(advected) {
-            if let (Some(before), Some(advected)) = (before, advected) {
-                gas.budget.advection += advected - before;
-            }
-            if let (Some(faces), Some(kept)) = (faces, gas.model.gridded_total()) {
-                let rho = gas.model.gridded_mut().expect("a gridded gas");
-                faces.clear_dry(rho.as_slice_mut());
-                gas.budget.cleared += rho.total() - kept;
-            }
-        }
-        // A prescribed velocity stays the one the step moved the gases by.
+        DensityModel::advect_all(self.gases.iter_mut().map(|g| &mut g.model), &input);
+        self.densities_evaluated = false;
         if self.prescribed.is_none() {
             std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
         }
         Ok(())
     }
 
+    /// Eq 6.4's `+ inject(source, dt)`, after [`Self::advect`]
+    /// ([`DensityModel::inject_all`]): a gridded gas adds `S̄ Δt` to its
+    /// advected density in one pass that also sums the advected and the new
+    /// totals, which close its [`MassBudget`]'s advection term (the total
+    /// before, unchanged by the advection into the target, less the
+    /// advected one); a gridless gas's walk integrates its source (eq 7.4);
+    /// SELMA injects in reference coordinates and re-anchors.
+    pub fn inject(&mut self) {
+        let before: Vec<Option<f64>> = self.gases.iter().map(|g| g.model.gridded_total()).collect();
+        let advected = DensityModel::inject_all(
+            self.gases.iter_mut().map(|g| (&mut g.model, &g.source)),
+            self.params.dt,
+        );
+        for ((gas, before), advected) in self.gases.iter_mut().zip(before).zip(advected) {
+            if let (Some(before), Some(advected)) = (before, advected) {
+                gas.budget.advection += advected - before;
+            }
+        }
+    }
+
+    /// With exact obstacles, a gridded density holds nothing in the dry
+    /// cells ([`crate::boundary::OpenFaces::clear_dry`]): what a backtrace
+    /// carried there is lost, and counted so by the retained mass and the
+    /// [`MassBudget`]'s cleared term. Gridless and SELMA densities are zero
+    /// inside the walls by construction.
+    pub fn clear_dry(&mut self) {
+        let Some(faces) = (self.obstacle_projection.is_some())
+            .then(|| self.boundary.as_ref().map(|b| b.open_faces()))
+            .flatten()
+        else {
+            return;
+        };
+        for gas in &mut self.gases {
+            if let Some(kept) = gas.model.gridded_total() {
+                let rho = gas.model.gridded_mut().expect("a gridded gas");
+                faces.clear_dry(rho.as_slice_mut());
+                gas.budget.cleared += rho.total() - kept;
+            }
+        }
+    }
+
     /// Evaluate gridless and SELMA densities at the cell centres, the input
-    /// of the buoyancy force (gridded densities already live there); the
-    /// gridless gases walk back once for all ([`DensityModel::evaluate_all`]).
+    /// of the buoyancy force and what [`Gas::density`] reads (gridded
+    /// densities already live there); the gridless gases walk back once for
+    /// all ([`DensityModel::evaluate_all`]). Nothing to do when they were
+    /// evaluated since the last step.
     pub fn evaluate_densities(&mut self) {
-        DensityModel::evaluate_all(self.gases.iter_mut().map(|g| &mut g.model));
+        if !self.densities_evaluated {
+            DensityModel::evaluate_all(self.gases.iter_mut().map(|g| &mut g.model));
+            self.densities_evaluated = true;
+        }
     }
 
     /// Bytes held by the density representations of all gases, each shared
@@ -469,20 +527,20 @@ impl Simulation {
     /// commute, [`crate::pressure`]). With exact obstacles the solve is the
     /// obstacle-aware one (the viscosity still ignores obstacles).
     ///
-    /// # Panics
-    /// If the viscosity or Δt is negative or not finite (scenarios refuse
-    /// such configurations with an error before a simulation is built).
-    pub fn project(&mut self) {
+    /// # Errors
+    /// If the viscosity or Δt is negative or not finite; nothing is changed
+    /// then.
+    pub fn project(&mut self) -> Result<(), InputError> {
         let p = self.params;
-        if let Err(e) = self.pressure.diffuse(&mut self.velocity, p.viscosity, p.dt) {
-            panic!("{e}");
-        }
+        self.pressure
+            .diffuse(&mut self.velocity, p.viscosity, p.dt)?;
         match (&mut self.obstacle_projection, &self.boundary) {
             (Some(c), Some(b)) => {
                 c.project(&mut self.velocity, b.open_faces(), &mut self.pressure);
             }
             _ => self.pressure.project(&mut self.velocity),
         }
+        Ok(())
     }
 
     /// What changes as the simulation steps — the step count, the velocity,
@@ -552,6 +610,7 @@ impl Simulation {
         }
         self.velocity = state.velocity;
         self.step_index = state.step_index;
+        self.densities_evaluated = false;
         Ok(())
     }
 
@@ -573,5 +632,38 @@ impl Simulation {
             self.pressure.project(&mut self.velocity);
             b.apply(&mut self.velocity);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::field::ops;
+
+    /// A step with a negative viscosity is refused with an error naming the
+    /// value (the projection used to panic on it, after the gases had
+    /// moved), and the state is unchanged; with ν fixed the same simulation
+    /// steps on.
+    #[test]
+    fn a_negative_viscosity_is_refused_before_anything_moves() {
+        let domain = Domain::new(Vec3::ZERO, 1.0, [8, 8, 8]).unwrap();
+        let source = ops::mask(ops::sphere(Vec3::splat(4.0), 2.0));
+        let params = StepParams {
+            dt: 0.1,
+            viscosity: -1.0,
+            gravity: Vec3::new(0.0, -1.0, 0.0),
+            backtrace: Backtrace::Rk2,
+        };
+        let gas = Gas::new("hot", domain, &source, 1.0);
+        let mut sim = Simulation::new(domain, params, vec![gas]);
+        let err = sim.try_step().unwrap_err();
+        assert!(matches!(err, StepError::Params(_)), "{err:?}");
+        assert!(err.to_string().contains("viscosity is -1"), "{err}");
+        assert_eq!(sim.step_index, 0);
+        assert_eq!(sim.gases[0].density().total(), 0.0);
+        sim.params.viscosity = 0.0;
+        sim.try_step().unwrap();
+        assert_eq!(sim.step_index, 1);
+        assert!(sim.gases[0].density().total() > 0.0);
     }
 }

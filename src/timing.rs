@@ -4,17 +4,24 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-/// Seconds spent in each stage of one time step.
+/// Seconds spent in each stage of one time step, in the step's order
+/// ([`crate::simulation::Simulation::try_step`]), then the run's own.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct StageTimes {
     /// Advection of densities and velocity.
     pub advect: f64,
+    /// Injecting the sources (with a gridded gas's totals, summed in the
+    /// same pass).
+    pub inject: f64,
     /// Evaluating gridless/SELMA densities at the cell centres for buoyancy.
     pub density: f64,
-    /// Sources and buoyancy.
+    /// Buoyancy.
     pub force: f64,
     /// FFT projection (and viscosity).
     pub project: f64,
+    /// Obstacles: the dry cells cleared and the velocity's closed faces
+    /// (eqs 6.6–6.7, or the exact method's wall extension).
+    pub boundary: f64,
     /// Writing volumes, previews and metrics.
     pub output: f64,
     /// The run's measures: the per-step ones and, on their cadence, the fine
@@ -25,7 +32,28 @@ pub struct StageTimes {
 impl StageTimes {
     /// Sum over stages.
     pub fn total(&self) -> f64 {
-        self.advect + self.density + self.force + self.project + self.output + self.metrics
+        self.advect
+            + self.inject
+            + self.density
+            + self.force
+            + self.project
+            + self.boundary
+            + self.output
+            + self.metrics
+    }
+}
+
+impl std::ops::AddAssign for StageTimes {
+    /// Add `other`'s seconds stage by stage.
+    fn add_assign(&mut self, other: Self) {
+        self.advect += other.advect;
+        self.inject += other.inject;
+        self.density += other.density;
+        self.force += other.force;
+        self.project += other.project;
+        self.boundary += other.boundary;
+        self.output += other.output;
+        self.metrics += other.metrics;
     }
 }
 

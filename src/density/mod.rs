@@ -51,6 +51,7 @@ use crate::grid::{FaceGrid, ScalarGrid, VectorGrid};
 pub use cell_average::CellSamples;
 pub use gridded::Gridded;
 pub use gridless::{Gridless, GridlessField, HistoryStep};
+use selma::{advect_group, inject_group};
 pub use selma::{step_group, MapState, Selma, SelmaField, SelmaState};
 
 /// A backward characteristic map `X(x)`, evaluated at many points at once:
@@ -369,7 +370,8 @@ impl DensityModel {
     /// [`Self::evaluate_centres`] for that (the buoyancy input).
     ///
     /// A SELMA model steps its own map here; the gases of a simulation
-    /// share one map through [`Self::step_all`] instead.
+    /// share one map through [`Self::advect_all`] and [`Self::inject_all`]
+    /// instead.
     ///
     /// Returns, for the gridded model, the advected density's total before
     /// the injection ([`Gridded::step`]: its mass budget's advection term
@@ -387,26 +389,51 @@ impl DensityModel {
         None
     }
 
-    /// [`Self::step`] for every gas, in order, each with its grid source;
-    /// the SELMA gases step together ([`selma::step_group`]), sharing one
-    /// map where their maps agree. Returns what [`Self::step`] returns,
-    /// per gas.
-    pub fn step_all<'a>(
-        gases: impl IntoIterator<Item = (&'a mut DensityModel, &'a ScalarGrid)>,
+    /// The transport half of [`Self::step`] for every gas: gridless gases
+    /// keep the step's velocity (eq 7.4), the SELMA gases advect their maps
+    /// together ([`selma::advect_group`]), sharing one map where their maps
+    /// agree. Gridded gases have nothing to do here: the simulation's
+    /// advector moved them into their targets ([`Self::advection_pair`]).
+    pub fn advect_all<'a>(
+        gases: impl IntoIterator<Item = &'a mut DensityModel>,
         input: &StepInput<'_>,
+    ) {
+        let mut selma = Vec::new();
+        for model in gases {
+            match model {
+                DensityModel::Gridded(_) => {}
+                DensityModel::Gridless(g) => g.step(input),
+                DensityModel::Selma(s) => selma.push(&mut **s),
+            }
+        }
+        advect_group(&mut selma, input);
+    }
+
+    /// The injection half of [`Self::step`] for every gas, after
+    /// [`Self::advect_all`], each with its source at the cell centres: a
+    /// gridded gas takes its advected density and adds `S Δt`; a gridless
+    /// gas has nothing to add (its walk integrates the source, eq 7.4); the
+    /// SELMA gases inject in reference coordinates and re-anchor together
+    /// ([`selma::inject_group`]). Returns, per gas, what [`Self::step`]
+    /// returns: a gridded gas's advected total, summed in the injection's
+    /// pass.
+    pub fn inject_all<'a>(
+        gases: impl IntoIterator<Item = (&'a mut DensityModel, &'a ScalarGrid)>,
+        dt: f32,
     ) -> Vec<Option<f64>> {
         let mut selma = Vec::new();
         let mut advected = Vec::new();
         for (model, source) in gases {
             advected.push(match model {
+                DensityModel::Gridded(g) => Some(g.step(source, dt)),
+                DensityModel::Gridless(_) => None,
                 DensityModel::Selma(s) => {
                     selma.push(&mut **s);
                     None
                 }
-                other => other.step(input, source),
             });
         }
-        step_group(&mut selma, input);
+        inject_group(&mut selma, dt);
         advected
     }
 

@@ -794,19 +794,27 @@ impl Selma {
     }
 }
 
-/// One step of SELMA gases in a fixed order, sharing maps: a gas whose map
-/// is, to the bit and with the same settings, the map of the nearest earlier
-/// gas that has one gives its own up and shares that one (so the gases of a
-/// run, built alike and moved by one velocity, share a map from their first
-/// step; a gas added later with another map keeps it). Then per map: advect
-/// it (eq 8.8) and move its lattice once, inject every sharing gas's source,
-/// and, when the lattice has deformed by more than the threshold,
-/// re-anchor every sharing gas's reference against the current map before
-/// resetting the map. Each gas gets the numbers it would get alone.
+/// One step of SELMA gases in a fixed order, sharing maps:
+/// [`advect_group`] then [`inject_group`]. Each gas gets the numbers it
+/// would get alone.
 ///
 /// # Panics
 /// If the first gas shares a map (no earlier gas has one).
 pub fn step_group(gases: &mut [&mut Selma], input: &StepInput<'_>) {
+    advect_group(gases, input);
+    inject_group(gases, input.dt);
+}
+
+/// The transport half of [`step_group`]: a gas whose map is, to the bit
+/// and with the same settings, the map of the nearest earlier gas that has
+/// one gives its own up and shares that one (so the gases of a run, built
+/// alike and moved by one velocity, share a map from their first step; a
+/// gas added later with another map keeps it). Then per map: advect it
+/// (eq 8.8) and move its lattice forward once.
+///
+/// # Panics
+/// If the first gas shares a map (no earlier gas has one).
+pub fn advect_group(gases: &mut [&mut Selma], input: &StepInput<'_>) {
     let mut owner = None;
     for n in 0..gases.len() {
         let Some(map) = &gases[n].map else { continue };
@@ -822,37 +830,56 @@ pub fn step_group(gases: &mut [&mut Selma], input: &StepInput<'_>) {
             None => owner = Some(n),
         }
     }
+    for_each_map(gases, |gases, map| {
+        map.advect(input);
+        map.track_lattice(input);
+        for g in gases.iter_mut() {
+            g.field.disp = Arc::clone(&map.disp);
+        }
+    });
+}
+
+/// The injection half of [`step_group`], after [`advect_group`]: per map,
+/// inject every sharing gas's source at the moved lattice ([`inject`]) and,
+/// when the lattice has deformed by more than the threshold, re-anchor
+/// every sharing gas's reference against the current map before resetting
+/// the map (the re-anchoring takes the injected reference, so it follows
+/// the injection).
+///
+/// # Panics
+/// If the first gas shares a map.
+pub fn inject_group(gases: &mut [&mut Selma], dt: f32) {
+    for_each_map(gases, |gases, map| {
+        inject(gases, &map.lattice, dt);
+        if map.remap > 0.0 && map.deformation() > map.remap {
+            reanchor(gases);
+            map.reset();
+            for g in gases.iter_mut() {
+                g.field.disp = Arc::clone(&map.disp);
+            }
+        }
+    });
+}
+
+/// Call `f(group, map)` for each run of gases sharing one map: its owner
+/// first, then the gases without a map of their own; the map is taken from
+/// its owner for the call and given back.
+fn for_each_map(gases: &mut [&mut Selma], mut f: impl FnMut(&mut [&mut Selma], &mut SelmaMap)) {
     let mut start = 0;
     while start < gases.len() {
         let len = 1 + gases[start + 1..]
             .iter()
             .take_while(|g| g.map.is_none())
             .count();
-        step_shared(&mut gases[start..start + len], input);
+        let group = &mut gases[start..start + len];
+        let mut map = group[0]
+            .map
+            .take()
+            .expect("the first SELMA gas of a group owns its map");
+        f(group, &mut map);
+        group[0].map = Some(map);
         start += len;
     }
-}
-
-/// [`step_group`] for one map: `gases[0]` owns it, the others share it.
-fn step_shared(gases: &mut [&mut Selma], input: &StepInput<'_>) {
-    let mut map = gases[0]
-        .map
-        .take()
-        .expect("the first SELMA gas of a group owns its map");
-    map.advect(input);
-    map.track_lattice(input);
-    for g in gases.iter_mut() {
-        g.field.disp = Arc::clone(&map.disp);
-    }
-    inject(gases, &map.lattice, input.dt);
-    if map.remap > 0.0 && map.deformation() > map.remap {
-        reanchor(gases);
-        map.reset();
-        for g in gases.iter_mut() {
-            g.field.disp = Arc::clone(&map.disp);
-        }
-    }
-    gases[0].map = Some(map);
 }
 
 /// `R(ξ) += Δt · mean_{2×2×2} S(Y(ξ) + o)` for every gas with a source,
