@@ -11,7 +11,7 @@
 //!   and the speed-up `t₁ / t₂`. The two fields after the steps must be
 //!   bitwise equal at every resolution (the experiment fails otherwise);
 //! - **stages**: the median of each stage's wall seconds that the step
-//!   records (`Simulation::times`: advect, density, force, project);
+//!   records (`Simulation::times`: advect, inject, density, force, project, boundary);
 //! - **the floor**: one real 3D FFT pair of the same size — the faster of a
 //!   f32 pair (the solver's periodic pair `PeriodicFft` in f32: realfft r2c
 //!   along x, rustfft along y and z, the inverse back, [`FftPair`]) and the
@@ -255,9 +255,11 @@ struct Row {
     step_1t_ms: f64,
     step_euler_ms: f64,
     advect_ms: f64,
+    inject_ms: f64,
     density_ms: f64,
     force_ms: f64,
     project_ms: f64,
+    boundary_ms: f64,
     fft_f32_ms: f64,
     fft_solver_ms: f64,
     bandwidth_ms: f64,
@@ -358,13 +360,13 @@ fn measure(
     let mut pass = Bandwidth::new(domain.len());
     let mut probes = FineProbes::new(domain);
     let mut t = [(); 8].map(|_| Vec::with_capacity(steps));
-    let mut stages = [(); 4].map(|_| Vec::with_capacity(steps));
+    let mut stages = [(); 6].map(|_| Vec::with_capacity(steps));
     for _ in 0..steps {
         t[0].push(ms(|| two.install(|| double.step())));
         let s = double.times;
         for (v, x) in stages
             .iter_mut()
-            .zip([s.advect, s.density, s.force, s.project])
+            .zip([s.advect, s.inject, s.density, s.force, s.project, s.boundary])
         {
             v.push(x * 1e3);
         }
@@ -392,7 +394,7 @@ fn measure(
     }
     let widths = measure_widths(res, steps, two, [&mut double, &mut euler])?;
     let [step, step_1t, step_euler, fft_f32, fft_solver, bandwidth, metrics, fine] = t.map(median);
-    let [advect, density, force, project] = stages.map(median);
+    let [advect, inject, density, force, project, boundary] = stages.map(median);
     let row = Row {
         res,
         cells: domain.len(),
@@ -401,9 +403,11 @@ fn measure(
         step_1t_ms: step_1t,
         step_euler_ms: step_euler,
         advect_ms: advect,
+        inject_ms: inject,
         density_ms: density,
         force_ms: force,
         project_ms: project,
+        boundary_ms: boundary,
         fft_f32_ms: fft_f32,
         fft_solver_ms: fft_solver,
         bandwidth_ms: bandwidth,
@@ -819,9 +823,11 @@ fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()>
         "speedup",
         "step_euler_ms",
         "advect_ms",
+        "inject_ms",
         "density_ms",
         "force_ms",
         "project_ms",
+        "boundary_ms",
         "fft_pair_f32_ms",
         "fft_pair_solver_f64_ms",
         "bandwidth_ms",
@@ -857,9 +863,11 @@ fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()>
                 r.speedup(),
                 r.step_euler_ms,
                 r.advect_ms,
+                r.inject_ms,
                 r.density_ms,
                 r.force_ms,
                 r.project_ms,
+                r.boundary_ms,
                 r.fft_f32_ms,
                 r.fft_solver_ms,
                 r.bandwidth_ms,

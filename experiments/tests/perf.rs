@@ -24,6 +24,7 @@ fn p1_smoke_measures_every_resolution_and_threads_agree_bitwise() {
             "step_1thread_ms",
             "step_euler_ms",
             "advect_ms",
+            "inject_ms",
             "project_ms",
         ] {
             assert!(num(r, col) > 0.0, "{col} = {}", num(r, col));
