@@ -35,6 +35,7 @@ mod density_compare;
 mod sphere_wall_series;
 mod model_render;
 mod cloud_figures;
+mod warp_figures;
 mod e03_3_cloud_layers;
 mod e03_4_billow;
 mod e03_7_cloud_advection;
