@@ -7,6 +7,8 @@
 
 // Commands and the run driver.
 pub mod cli;
+mod resume;
+mod experiment_all;
 pub mod run;
 pub mod checkpoint;
 pub mod frames;
