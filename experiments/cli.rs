@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand};
 
-use crate::checkpoint::{Checkpoint, RenderFlags, RunRecord};
+use crate::checkpoint::{RenderFlags, RunRecord};
 use crate::frames::FrameRender;
 use crate::output_dir;
 use crate::registry;
@@ -395,7 +395,7 @@ impl RunArgs {
 
 /// Every scenario's name and keys, for naming the owner of a key another
 /// scenario does not have.
-fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
+pub(crate) fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
     vec![
         (HotColdConfig::NAME, config::keys::<HotColdConfig>()),
         (SlabBoxConfig::NAME, config::keys::<SlabBoxConfig>()),
@@ -467,7 +467,7 @@ fn check_clean_build(out: &std::path::Path, allow_dirty: bool) -> Result<(), Inp
 /// the interrupt message ([`interrupt_hint`]).
 static RUNNING: std::sync::Mutex<Option<(PathBuf, bool)>> = std::sync::Mutex::new(None);
 
-fn set_running(dir: &std::path::Path, checkpoints: bool) {
+pub(crate) fn set_running(dir: &std::path::Path, checkpoints: bool) {
     *RUNNING.lock().unwrap_or_else(|e| e.into_inner()) = Some((dir.to_path_buf(), checkpoints));
 }
 
@@ -490,7 +490,7 @@ pub fn interrupt_hint() -> String {
 }
 
 /// Set the number of rayon worker threads (once per process).
-fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
+pub(crate) fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
     if let Some(n) = threads {
         smokelab::timing::check_threads(n)?;
         // A second call (e.g. in tests) keeps the first pool; that is fine.
@@ -522,7 +522,7 @@ pub fn execute(cli: Cli) -> Result<()> {
 /// `smokelab run`: the scenario registry, one line per scenario.
 fn run_scenario(args: &RunArgs) -> Result<()> {
     if let Some(dir) = &args.resume {
-        return resume_run(args, dir);
+        return crate::resume::resume_run(args, dir);
     }
     match args.scenario {
         ScenarioKind::HotCold => run_config(args, &args.resolve::<HotColdConfig>()?),
@@ -610,233 +610,7 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
     Ok(())
 }
 
-/// `smokelab run --resume RUN_DIR`: check everything (the checkpoint whole,
-/// of this version, matching the run's manifest and its metrics rows), then
-/// remove the frames written after the checkpoint, cut `metrics.csv` after
-/// its row and continue the run from it.
-fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
-    let mut given = toml::Table::try_from(&args.solver).expect("flags serialize to a table");
-    given.extend(toml::Table::try_from(&args.scene).expect("flags serialize to a table"));
-    given.remove("frames");
-    given.remove("threads");
-    let others = [
-        (args.config.is_some(), "--config"),
-        (!args.set.is_empty(), "--set"),
-        (args.out.is_some(), "--out"),
-        (args.overwrite, "--overwrite"),
-        (args.print_config, "--print-config"),
-        (args.checkpoint_every.is_some(), "--checkpoint-every"),
-        (
-            args.vdb || args.paraview || args.render || args.vdb_flags.given(),
-            "output flags",
-        ),
-    ];
-    let mut refused: Vec<String> = given
-        .keys()
-        .map(|k| format!("--{}", k.replace('_', "-")))
-        .collect();
-    refused.extend(others.iter().filter(|o| o.0).map(|o| o.1.to_string()));
-    if !refused.is_empty() {
-        return Err(InputError::new(format!(
-            "--resume continues the run as it was configured; drop {} (only --frames, --threads and --quiet may be given)",
-            refused.join(", ")
-        ))
-        .into());
-    }
-    if !dir.is_dir() {
-        return Err(
-            InputError::new(format!("--resume {} is not a run folder", dir.display())).into(),
-        );
-    }
-    let checkpoint = Checkpoint::read(dir)?;
-    if checkpoint.commit() != io::manifest::BUILD_COMMIT {
-        eprintln!(
-            "warning: {} was written by a build of {}; this is {}: a resumed run is bitwise the uninterrupted one only on the same build",
-            dir.join(crate::checkpoint::FILE).display(),
-            checkpoint.commit(),
-            io::manifest::BUILD_COMMIT
-        );
-    }
-    match checkpoint.run().scenario {
-        ScenarioKind::HotCold => resume_config::<HotColdConfig>(args, dir, &checkpoint),
-        ScenarioKind::SlabBox => resume_config::<SlabBoxConfig>(args, dir, &checkpoint),
-        ScenarioKind::Deformation => resume_config::<DeformationConfig>(args, dir, &checkpoint),
-        ScenarioKind::Zalesak => resume_config::<ZalesakConfig>(args, dir, &checkpoint),
-        ScenarioKind::TaylorGreen => resume_config::<TaylorGreenConfig>(args, dir, &checkpoint),
-    }
-}
-
-/// [`resume_run`] for the checkpoint's scenario `C`.
-fn resume_config<C: Scenario>(
-    args: &RunArgs,
-    dir: &std::path::Path,
-    checkpoint: &Checkpoint,
-) -> Result<()> {
-    let record = checkpoint.run();
-    let step = checkpoint.step();
-    let file = dir.join(crate::checkpoint::FILE);
-    let recorded: toml::Table = toml::from_str(&record.config).map_err(|e| {
-        InputError::new(format!(
-            "{} holds a configuration that does not parse: {e}",
-            file.display()
-        ))
-    })?;
-    let original: C =
-        config::resolve(&[("checkpoint".into(), recorded.clone())], &scenario_keys())?;
-    // The run's manifest, written at its start, must name the same configuration.
-    let manifest_path = dir.join("manifest.json");
-    let manifest: serde_json::Value = std::fs::read(&manifest_path)
-        .ok()
-        .and_then(|b| serde_json::from_slice(&b).ok())
-        .ok_or_else(|| {
-            InputError::new(format!(
-                "{} is missing or not JSON; cannot check the checkpoint against the run",
-                manifest_path.display()
-            ))
-        })?;
-    // Through text, as the manifest was written (an f32 as its shortest decimal).
-    let want: serde_json::Value = serde_json::from_str(&serde_json::to_string(&original)?)?;
-    if manifest["config"] != want {
-        let differ: Vec<&String> = want
-            .as_object()
-            .map(|w| {
-                w.keys()
-                    .filter(|k| manifest["config"][k.as_str()] != w[k.as_str()])
-                    .collect()
-            })
-            .unwrap_or_default();
-        return Err(InputError::new(format!(
-            "{} is from another configuration than {} (keys differing: {})",
-            file.display(),
-            manifest_path.display(),
-            if differ.is_empty() {
-                "all".to_string()
-            } else {
-                differ
-                    .iter()
-                    .map(|k| k.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            }
-        ))
-        .into());
-    }
-    if manifest["status"] == "complete" && args.solver.frames.is_none() {
-        return Err(InputError::new(format!(
-            "the run in {} is complete; give --frames N (more than the checkpoint's step {step}) to continue it",
-            dir.display()
-        ))
-        .into());
-    }
-    let mut layers = vec![("checkpoint".to_string(), recorded)];
-    if let Some(frames) = args.solver.frames {
-        let mut t = toml::Table::new();
-        t.insert("frames".into(), toml::Value::Integer(frames as i64));
-        layers.push(("--frames".into(), t));
-    }
-    let config: C = config::resolve(&layers, &scenario_keys())?;
-    let s = config.solver();
-    if s.frames <= step {
-        return Err(InputError::new(format!(
-            "the run would end at frame {}, not after the checkpoint's step {step}; give --frames N > {step}",
-            s.frames
-        ))
-        .into());
-    }
-    init_threads(args.solver.threads.or(s.threads))?;
-    let flags = RunArgs {
-        render: record.render.is_some(),
-        render_every: record.render.as_ref().and_then(|r| r.every),
-        image: record.render.as_ref().and_then(|r| r.image.clone()),
-        march_step: record.render.as_ref().and_then(|r| r.march_step),
-        ..RunArgs::default()
-    };
-    let render = frame_render(&flags, s)?;
-    let mut sim = config.build()?;
-    let state = checkpoint.state_for(&sim)?;
-    sim.restore(state)?;
-    let metrics = crate::checkpoint::metrics_upto(dir, step, &run::metric_columns(&sim))?;
-    // Checked: now replace what the killed run wrote after the checkpoint.
-    let save_every = s.save_every;
-    for f in output_dir::earlier_outputs(dir, &output_dir::RUN).files {
-        let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        let number = name
-            .rsplit_once('_')
-            .and_then(|(_, rest)| rest.split_once('.'))
-            .and_then(|(n, _)| n.parse::<usize>().ok());
-        // The VDB and VTK frames are numbered by sequence: `n` holds a step
-        // in `((n−1)K, nK]`, after the checkpoint when `nK > step` (the one
-        // straddling it is rewritten by the resumed run).
-        let exchange =
-            name.starts_with("frame_") && (name.ends_with(".vdb") || name.ends_with(".vti"));
-        let after = number.is_some_and(|n| match exchange {
-            true => n * save_every.max(1) > step,
-            false => n > step,
-        });
-        if after {
-            std::fs::remove_file(&f)
-                .map_err(|e| anyhow::anyhow!("cannot remove {} to resume: {e}", f.display()))?;
-        }
-    }
-    for f in killed_temporary_files(dir) {
-        std::fs::remove_file(&f)
-            .map_err(|e| anyhow::anyhow!("cannot remove {} to resume: {e}", f.display()))?;
-    }
-    io::write_atomic(&dir.join("metrics.csv"), |w| {
-        use std::io::Write;
-        Ok(w.write_all(metrics.as_bytes())?)
-    })?;
-    set_running(dir, true);
-    let vdb = record.vdb.then(|| record.vdb_frames.clone());
-    let opts = run_options(
-        dir.to_path_buf(),
-        s,
-        args.quiet,
-        render,
-        (vdb, record.paraview),
-    );
-    let checkpoints = Checkpointing {
-        every: record.checkpoint_every,
-        record: RunRecord {
-            config: toml::to_string(&config).expect("a configuration serializes to TOML"),
-            ..record.clone()
-        },
-        resumed_from: Some(step),
-    };
-    let summary = run::run_checkpointed(&mut sim, &opts, &config, s.seed, &checkpoints)?;
-    println!(
-        "{} ({} density): resumed at step {step}, {} steps at {}³ in {:.1} s; wrote {}",
-        C::NAME,
-        s.density,
-        s.frames - step,
-        s.res,
-        summary.wall_seconds,
-        dir.display()
-    );
-    Ok(())
-}
-
-/// Temporary files a killed process left in `dir`: `<name>.<pid>-<n>.tmp`
-/// ([`io::write_atomic`]; a SIGKILL leaves no time to remove them).
-fn killed_temporary_files(dir: &std::path::Path) -> Vec<PathBuf> {
-    let numbered = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    let is_temporary = |name: &str| {
-        name.strip_suffix(".tmp")
-            .and_then(|stem| stem.rsplit_once('.'))
-            .and_then(|(_, tag)| tag.split_once('-'))
-            .is_some_and(|(pid, n)| numbered(pid) && numbered(n))
-    };
-    std::fs::read_dir(dir)
-        .into_iter()
-        .flatten()
-        .filter_map(|e| e.ok())
-        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
-        .filter(|e| e.file_name().to_str().is_some_and(is_temporary))
-        .map(|e| e.path())
-        .collect()
-}
-
-fn default_run_dir(name: &str) -> PathBuf {
+pub(crate) fn default_run_dir(name: &str) -> PathBuf {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
@@ -884,13 +658,13 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
             _ => default_out("all"),
         });
         check_clean_build(&parent, args.allow_dirty)?;
-        let options = AllOptions {
+        let options = crate::experiment_all::AllOptions {
             size,
             progress: !args.quiet,
             overwrite: args.overwrite,
             peers: args.peers.as_deref(),
         };
-        return run_all_experiments(&parent, &options);
+        return crate::experiment_all::run(&parent, &options);
     }
     let exp = registry::find(id)?;
     let out = args.out.clone().unwrap_or_else(|| default_out(exp.folder));
@@ -920,183 +694,9 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     Ok(())
 }
 
-/// One row of `experiments.csv`.
-#[derive(Serialize)]
-struct ExperimentRow {
-    id: &'static str,
-    reproduces: &'static str,
-    seconds: f64,
-    output: String,
-    status: String,
-}
-
-/// `smokelab experiment all`: every experiment in the notes' order into
-/// `parent/<folder>/`, going on past failures, then a table of what ran, how
-/// long and where it wrote — printed and saved as `parent/experiments.csv`.
-/// Every folder is checked first ([`output_dir::EXPERIMENT`]): one holding
-/// earlier outputs refuses the whole run unless `overwrite`, and then each
-/// experiment's earlier outputs are removed right before it runs.
-/// How `experiment all` runs: the size, progress, `--overwrite`, and the
-/// Python that runs P-1's peers (`--peers`).
-struct AllOptions<'a> {
-    size: registry::Size,
-    progress: bool,
-    overwrite: bool,
-    peers: Option<&'a std::path::Path>,
-}
-
-/// The time left of `experiment all`, estimated from the seconds each
-/// experiment took when `experiments.csv` was last written into the same
-/// folder, scaled by this run's pace so far (its seconds over those
-/// recorded, for the experiments done). `None` without a record.
-struct AllEstimate {
-    recorded: std::collections::HashMap<String, f64>,
-    actual: f64,
-    expected: f64,
-}
-
-impl AllEstimate {
-    fn read(table: &std::path::Path) -> Self {
-        let recorded = std::fs::read_to_string(table)
-            .ok()
-            .and_then(|text| {
-                let mut r = csv::Reader::from_reader(text.as_bytes());
-                let rows: Result<Vec<ExperimentRecord>, _> = r.deserialize().collect();
-                rows.ok()
-            })
-            .map(|rows| rows.into_iter().map(|r| (r.id, r.seconds)).collect())
-            .unwrap_or_default();
-        Self {
-            recorded,
-            actual: 0.0,
-            expected: 0.0,
-        }
-    }
-
-    /// Book an experiment done in `seconds`.
-    fn done(&mut self, id: &str, seconds: f64) {
-        if let Some(&e) = self.recorded.get(id) {
-            self.actual += seconds;
-            self.expected += e;
-        }
-    }
-
-    /// Seconds left for `remaining`, if every one of them has a record.
-    fn left<'e>(&self, mut remaining: impl Iterator<Item = &'e str>) -> Option<f64> {
-        let pace = if self.expected > 0.0 {
-            self.actual / self.expected
-        } else {
-            1.0
-        };
-        remaining.try_fold(0.0, |sum, id| Some(sum + self.recorded.get(id)? * pace))
-    }
-}
-
-/// The columns of `experiments.csv` the estimate reads.
-#[derive(serde::Deserialize)]
-struct ExperimentRecord {
-    id: String,
-    seconds: f64,
-}
-
-fn run_all_experiments(parent: &std::path::Path, options: &AllOptions) -> Result<()> {
-    let &AllOptions {
-        size,
-        progress,
-        overwrite,
-        peers,
-    } = options;
-    io::check_output_dir(parent)?;
-    let table = parent.join("experiments.csv");
-    let mut estimate = AllEstimate::read(&table);
-    let mut earlier = Vec::new();
-    for exp in registry::ALL {
-        let out = parent.join(exp.folder);
-        earlier.push(output_dir::check(&out, &output_dir::EXPERIMENT, overwrite)?);
-    }
-    if table.is_file() && !overwrite {
-        return Err(InputError::new(format!(
-            "output folder {} holds {} of an earlier `experiment all`; give another --out, or --overwrite to replace it",
-            parent.display(),
-            table.display()
-        ))
-        .into());
-    }
-    let mut rows = Vec::new();
-    let count = registry::ALL.len();
-    for (n, (exp, earlier)) in registry::ALL.iter().zip(earlier).enumerate() {
-        let out = parent.join(exp.folder);
-        earlier.remove()?;
-        // One bar per experiment, titled with its place in the whole; its
-        // runs are its named stages.
-        let bar = crate::progress::experiment(&format!("{}/{count} {}", n + 1, exp.id), progress);
-        let left = estimate
-            .left(registry::ALL[n..].iter().map(|e| e.id))
-            .map(|s| format!(" · about {:.0} min left in all", (s / 60.0).ceil()))
-            .unwrap_or_default();
-        bar.suspend(|| println!("== experiment {} ({}){left}", exp.id, exp.reproduces));
-        let ctx = registry::Context {
-            out: out.clone(),
-            size,
-            progress,
-        };
-        let start = std::time::Instant::now();
-        let result = match peers {
-            Some(python) if exp.id == crate::ep_1_perf::EXPERIMENT.id => {
-                crate::ep_1_perf::run_with_peers(&ctx, Some(python))
-            }
-            _ => (exp.run)(&ctx),
-        };
-        let status = match result {
-            Ok(()) => "ok".to_string(),
-            Err(e) => {
-                bar.suspend(|| eprintln!("experiment {} failed: {e:#}", exp.id));
-                format!("failed: {e}")
-            }
-        };
-        let seconds = start.elapsed().as_secs_f64();
-        estimate.done(exp.id, seconds);
-        rows.push((exp, seconds, out, status));
-    }
-    let mut table = format!(
-        "{:<7} {:<22} {:>9}  {:<28} {}\n",
-        "id", "reproduces", "seconds", "output", "status"
-    );
-    let mut csv = Vec::new();
-    for (exp, secs, out, status) in &rows {
-        table.push_str(&format!(
-            "{:<7} {:<22} {:>9.1}  {:<28} {}\n",
-            exp.id,
-            exp.reproduces,
-            secs,
-            out.display(),
-            status
-        ));
-        csv.push(ExperimentRow {
-            id: exp.id,
-            reproduces: exp.reproduces,
-            seconds: (secs * 10.0).round() / 10.0,
-            output: out.display().to_string(),
-            status: status.clone(),
-        });
-    }
-    print!("{table}");
-    io::create_output_dir(parent)?;
-    crate::table::write_rows(&parent.join("experiments.csv"), &csv)?;
-    let failed: Vec<_> = rows
-        .iter()
-        .filter(|r| r.3 != "ok")
-        .map(|r| r.0.id)
-        .collect();
-    if !failed.is_empty() {
-        anyhow::bail!("experiments failed: {}", failed.join(", "));
-    }
-    Ok(())
-}
-
 /// What `run` (fresh or resumed) writes into `out`: the solver's frames,
 /// saves and metrics cadence, the frame renders, and `(vdb, paraview)`.
-fn run_options(
+pub(crate) fn run_options(
     out: PathBuf,
     s: &SolverConfig,
     quiet: bool,
@@ -1137,7 +737,10 @@ fn vdb_frames(
 /// The renders `smokelab run hot-cold --render [--render-every K]
 /// [--image WxH] [--march-step S]` asks for (`None` without `--render`).
 /// K defaults to the run's `save_every`; the default image is 256×256.
-fn frame_render(args: &RunArgs, config: &SolverConfig) -> Result<Option<FrameRender>, InputError> {
+pub(crate) fn frame_render(
+    args: &RunArgs,
+    config: &SolverConfig,
+) -> Result<Option<FrameRender>, InputError> {
     if !args.render {
         return Ok(None);
     }
@@ -1161,34 +764,4 @@ fn frame_render(args: &RunArgs, config: &SolverConfig) -> Result<Option<FrameRen
         &config.domain()?,
     )
     .map(Some)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::AllEstimate;
-
-    #[test]
-    fn all_estimate_scales_the_recorded_seconds_by_the_pace_so_far() {
-        let dir = tempfile::tempdir().unwrap();
-        let table = dir.path().join("experiments.csv");
-        std::fs::write(
-            &table,
-            "id,reproduces,seconds,output,status\n\
-             03-2,fig 3.2,10.0,results/03-2,ok\n\
-             06-1,fig 6.1,20.0,results/06-1,ok\n\
-             06-5,fig 6.5,30.0,results/06-5,ok\n",
-        )
-        .unwrap();
-        let mut e = AllEstimate::read(&table);
-        // Before anything ran: the record as it stands.
-        assert_eq!(e.left(["06-1", "06-5"].into_iter()), Some(50.0));
-        // 03-2 took twice its record: the rest is expected twice as long.
-        e.done("03-2", 20.0);
-        assert_eq!(e.left(["06-1", "06-5"].into_iter()), Some(100.0));
-        // An experiment without a record: no estimate rather than a low one.
-        assert_eq!(e.left(["06-5", "V-1"].into_iter()), None);
-        // No record at all: no estimate.
-        let none = AllEstimate::read(&dir.path().join("missing.csv"));
-        assert_eq!(none.left(["03-2"].into_iter()), None);
-    }
 }

@@ -1,6 +1,7 @@
 //! What the cloud experiments of chapter 3 (03-3 … 03-8) share: the base
 //! shape, the displacement layers, `cumulo` with a cache per layer, and a
-//! row of rendered, labelled panels written with their meshes and manifest.
+//! row of rendered, labelled panels written with their meshes and manifest,
+//! and the billowed cloud of 03-4 (eq 3.8) that 03-7 and 08-3 advect.
 //!
 //! The base is the notes' Stanford bunny (`assets/bunny.obj`, see
 //! `assets/README.md`): its signed distance (`model::mesh::MeshDistance`,
@@ -21,12 +22,13 @@ use serde::Serialize;
 use crate::model_render::render_framed;
 use crate::panels;
 use smokelab::domain::Domain;
+use smokelab::field::algebra::clamp;
 use smokelab::field::ops::{self, constant};
 use smokelab::field::Scalar;
 use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, manifest::Manifest};
 use smokelab::model::cache;
-use smokelab::model::cloud::{cumulo, noise_layers};
+use smokelab::model::cloud::{cumulo, measured_billow, noise_layers};
 use smokelab::model::mesh::{Mesh, MeshDistance};
 use smokelab::noise::perlin::Perlin;
 
@@ -39,6 +41,15 @@ pub(crate) const SCALE: f32 = 0.2;
 pub(crate) const BASE_WIDTH: f32 = 1.4;
 /// Steps of eq 3.3 per layer.
 const ITERATIONS: usize = 3;
+/// `Q_i` of eq 3.8 is this quantile of the previous cleared layer's
+/// `|N_{i−1}^c|` over the base's surface: its maximum, as the notes'
+/// `Q = 1` is for unit-amplitude noise, so the clamp never saturates and
+/// `(|N_{i−1}^c| / Q_i)^billow` clears the valleys more the larger billow
+/// is (a fixed `Q` of half the first layer's amplitude saturated almost
+/// everywhere, so every billow looked alike; the 99th percentile left
+/// billow 2 with 27 % of billow 0.33's cleared displacement, the maximum
+/// 23 %).
+pub(crate) const QUANTILE: f32 = 1.0;
 /// The Stanford bunny as OBJ text.
 static BUNNY: &[u8] = include_bytes!("assets/bunny.obj");
 
@@ -278,4 +289,95 @@ pub(crate) fn write_table(
             serde_json::json!({}),
         ),
     )
+}
+
+/// What every billow value shares: the bunny, the cloud after the first
+/// layer (eq 3.8 leaves `N_0` as it is), the raw layers, and the points
+/// of the bunny's surface on which `Q` is measured.
+pub(crate) struct Wedge {
+    /// The cloud after the first layer.
+    pub(crate) first: Scalar,
+    layers: Vec<Scalar>,
+    surface: Vec<Vec3>,
+    grid: usize,
+}
+
+impl Wedge {
+    /// The shared parts at `grid` cells per axis.
+    pub(crate) fn new(grid: usize) -> Result<Self> {
+        let base = base(grid)?;
+        let layers = layers(3, constant(SCALE));
+        let first = cloud(base.clone(), &layers[..1], 0, grid)?;
+        let surface = Mesh::from_level_set(&*base, domain(grid)?).vertices;
+        Ok(Self {
+            first,
+            layers,
+            surface,
+            grid,
+        })
+    }
+
+    /// The three-layer cloud with canyon clearing `b` (eq 3.8, `Q_i`
+    /// measured, [`QUANTILE`]), its cleared layers and the `Q_i`.
+    pub(crate) fn cloud(&self, b: f32) -> Result<Billowed> {
+        let (cleared, q) = measured_billow(&self.layers, constant(b), &self.surface, QUANTILE)?;
+        let level_set = cloud(self.first.clone(), &cleared[1..], 1, self.grid)?;
+        Ok(Billowed {
+            level_set,
+            cleared,
+            q,
+        })
+    }
+
+    /// Mean over the bunny's surface points of `Σ |N_i^c|` over `layers`.
+    pub(crate) fn displacement(&self, layers: &[Scalar]) -> f64 {
+        mean(&self.displacements(layers))
+    }
+
+    /// `Σ |N_i^c|` over `layers` at each of the bunny's surface points.
+    pub(crate) fn displacements(&self, layers: &[Scalar]) -> Vec<f64> {
+        self.surface
+            .iter()
+            .map(|&x| {
+                layers
+                    .iter()
+                    .map(|l| f64::from(l.eval(x).abs()))
+                    .sum::<f64>()
+            })
+            .collect()
+    }
+
+    /// The material the cleared layers add to the first layer's cloud:
+    /// `mask(ℓ) − mask(ℓ_1)` for the full level set `ℓ` (eq 3.4 only adds
+    /// `|N_i^c|`, so it holds the first layer's cloud), clamped to `[0, 1]`.
+    pub(crate) fn added(&self, level_set: &Scalar) -> Scalar {
+        clamp(
+            ops::sum(
+                ops::mask(level_set.clone()),
+                ops::scale(ops::mask(self.first.clone()), -1.0),
+            ),
+            0.0,
+            1.0,
+        )
+    }
+}
+
+/// A billowed cloud.
+pub(crate) struct Billowed {
+    /// Its level set.
+    pub level_set: Scalar,
+    /// The cleared layers `N_i^c`.
+    pub(crate) cleared: Vec<Scalar>,
+    /// `Q_i` for the layers after the first.
+    pub(crate) q: Vec<f32>,
+}
+
+/// The three-layer cloud with canyon clearing `b` (eq 3.8).
+pub(crate) fn billowed(b: f32, grid: usize) -> Result<Scalar> {
+    Ok(Wedge::new(grid)?.cloud(b)?.level_set)
+}
+
+/// The mean of `values`.
+pub(crate) fn mean(values: &[f64]) -> f64 {
+    values.iter().sum::<f64>() / values.len() as f64
 }

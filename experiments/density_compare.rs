@@ -26,7 +26,7 @@ use serde::Serialize;
 
 use crate::panels::{self, Labels};
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
-use crate::registry::Context;
+use crate::registry::{Context, Size};
 use crate::run::{self, RunOptions, SaveFrames};
 use crate::table::Columns;
 use smokelab::density::probe;
@@ -105,6 +105,42 @@ impl ModeRun {
             },
         }
     }
+}
+
+/// The hot/cold run of 06-3 and 06-5 and its pictures at `size`: `--smoke`
+/// 16³ and 12 frames, metrics every 4 steps, 128-pixel slices and 64-pixel
+/// renders; by default `default_res`³ (the scenario's own if `None`) and
+/// 100 frames, 320 and 256 pixels; `--full` the scenario's own resolution
+/// and frames, 400 and 320 pixels; metrics every 10 steps beyond smoke.
+pub(crate) fn hot_cold_size(size: Size, default_res: Option<usize>) -> (HotColdConfig, Look) {
+    let base = HotColdConfig::default();
+    let own = (base.solver.res, base.solver.frames, 10);
+    let default = (default_res.unwrap_or(own.0), 100, 10);
+    let (res, frames, metrics_every) = size.pick((16, 12, 4), default, own);
+    let look = size.pick(
+        Look {
+            slice: 128,
+            render: 64,
+        },
+        Look {
+            slice: 320,
+            render: 256,
+        },
+        Look {
+            slice: 400,
+            render: 320,
+        },
+    );
+    let config = HotColdConfig {
+        solver: SolverConfig {
+            res,
+            frames,
+            metrics_every,
+            ..base.solver.clone()
+        },
+        ..base
+    };
+    (config, look)
 }
 
 /// Picture sizes.

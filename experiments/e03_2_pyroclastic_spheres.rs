@@ -23,7 +23,7 @@ use anyhow::Result;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::model_render::{by_size, render_densities};
+use crate::model_render::render_densities;
 use crate::registry::{Context, Experiment};
 use crate::table::write_rows;
 use smokelab::domain::Domain;
@@ -70,7 +70,7 @@ struct Row {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (grid, pixels) = by_size(ctx.size, [(24, 96), (96, 384), (160, 768)]);
+    let (grid, pixels) = ctx.size.pick((24, 96), (96, 384), (160, 768));
     let sphere = |amplitude, frequency, key| Sphere {
         radius: 0.5,
         amplitude,

@@ -27,7 +27,6 @@ use serde::Serialize;
 use crate::cloud_figures::{
     base, cloud, layers, panel_rows, write_panels, write_table, Look, Panel, SCALE,
 };
-use crate::model_render::by_size;
 use crate::registry::{Context, Experiment};
 use smokelab::field::ops::constant;
 use smokelab::io;
@@ -52,7 +51,7 @@ struct Config {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (grid, pixels) = by_size(ctx.size, [(16, 64), (64, 256), (128, 512)]);
+    let (grid, pixels) = ctx.size.pick((16, 64), (64, 256), (128, 512));
     io::create_output_dir(&ctx.out)?;
     let all = layers(3, constant(SCALE));
     let bunny = base(grid)?;

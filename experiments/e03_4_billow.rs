@@ -6,7 +6,7 @@
 //! for billow = 0.33, 0.5, 0.67, 1, 2. The notes' `Q = 1` is for
 //! unit-amplitude noise; ours sets `Q_i` against the previous cleared
 //! layer's amplitude, its maximum over the bunny's surface
-//! ([`QUANTILE`]), so the clamp never saturates and
+//! ([`crate::cloud_figures::QUANTILE`]), so the clamp never saturates and
 //! larger billow clears the finer layers from the valleys of the coarser
 //! ones, leaving them only on the peaks.
 //!
@@ -44,18 +44,15 @@ use glam::Vec3;
 use serde::Serialize;
 
 use crate::cloud_figures::{
-    base, cloud, domain, layers, render_panels, write_table, Look, Panel, CLOUD_COLOR, SCALE,
+    domain, mean, render_panels, write_table, Look, Panel, Wedge, CLOUD_COLOR, QUANTILE, SCALE,
 };
-use crate::model_render::{by_size, render_framed};
+use crate::model_render::render_framed;
 use crate::panels;
 use crate::registry::{Context, Experiment};
 use smokelab::domain::Domain;
-use smokelab::field::algebra::clamp;
-use smokelab::field::ops::{self, constant};
+use smokelab::field::ops;
 use smokelab::field::Scalar;
 use smokelab::io::{self, preview};
-use smokelab::model::cloud::measured_billow;
-use smokelab::model::mesh::Mesh;
 
 /// Registry entry of the geometry (fig 3.4).
 pub const GEOMETRY: Experiment = Experiment {
@@ -79,15 +76,6 @@ pub const RENDERS: Experiment = Experiment {
 
 /// The billow values of the notes' wedge.
 pub(crate) const BILLOWS: [f32; 5] = [0.33, 0.5, 0.67, 1.0, 2.0];
-/// `Q_i` of eq 3.8 is this quantile of the previous cleared layer's
-/// `|N_{i−1}^c|` over the base's surface: its maximum, as the notes'
-/// `Q = 1` is for unit-amplitude noise, so the clamp never saturates and
-/// `(|N_{i−1}^c| / Q_i)^billow` clears the valleys more the larger billow
-/// is (a fixed `Q` of half the first layer's amplitude saturated almost
-/// everywhere, so every billow looked alike; the 99th percentile left
-/// billow 2 with 27 % of billow 0.33's cleared displacement, the maximum
-/// 23 %).
-pub(crate) const QUANTILE: f32 = 1.0;
 /// A surface point the cleared layers raise by less than this is bare
 /// (`bare_share`): a twentieth of the first layer's amplitude [`SCALE`].
 const BARE: f64 = 0.01;
@@ -129,94 +117,9 @@ struct Row {
     bare_share: f64,
 }
 
-/// What every billow value shares: the bunny, the cloud after the first
-/// layer (eq 3.8 leaves `N_0` as it is), the raw layers, and the points
-/// of the bunny's surface on which `Q` is measured.
-pub(crate) struct Wedge {
-    first: Scalar,
-    layers: Vec<Scalar>,
-    surface: Vec<Vec3>,
-    grid: usize,
-}
-
-impl Wedge {
-    /// The shared parts at `grid` cells per axis.
-    pub(crate) fn new(grid: usize) -> Result<Self> {
-        let base = base(grid)?;
-        let layers = layers(3, constant(SCALE));
-        let first = cloud(base.clone(), &layers[..1], 0, grid)?;
-        let surface = Mesh::from_level_set(&*base, domain(grid)?).vertices;
-        Ok(Self {
-            first,
-            layers,
-            surface,
-            grid,
-        })
-    }
-
-    /// The three-layer cloud with canyon clearing `b` (eq 3.8, `Q_i`
-    /// measured, [`QUANTILE`]), its cleared layers and the `Q_i`.
-    pub(crate) fn cloud(&self, b: f32) -> Result<Billowed> {
-        let (cleared, q) = measured_billow(&self.layers, constant(b), &self.surface, QUANTILE)?;
-        let level_set = cloud(self.first.clone(), &cleared[1..], 1, self.grid)?;
-        Ok(Billowed {
-            level_set,
-            cleared,
-            q,
-        })
-    }
-
-    /// Mean over the bunny's surface points of `Σ |N_i^c|` over `layers`.
-    fn displacement(&self, layers: &[Scalar]) -> f64 {
-        mean(&self.displacements(layers))
-    }
-
-    /// `Σ |N_i^c|` over `layers` at each of the bunny's surface points.
-    fn displacements(&self, layers: &[Scalar]) -> Vec<f64> {
-        self.surface
-            .iter()
-            .map(|&x| {
-                layers
-                    .iter()
-                    .map(|l| f64::from(l.eval(x).abs()))
-                    .sum::<f64>()
-            })
-            .collect()
-    }
-
-    /// The material the cleared layers add to the first layer's cloud:
-    /// `mask(ℓ) − mask(ℓ_1)` for the full level set `ℓ` (eq 3.4 only adds
-    /// `|N_i^c|`, so it holds the first layer's cloud), clamped to `[0, 1]`.
-    fn added(&self, level_set: &Scalar) -> Scalar {
-        clamp(
-            ops::sum(
-                ops::mask(level_set.clone()),
-                ops::scale(ops::mask(self.first.clone()), -1.0),
-            ),
-            0.0,
-            1.0,
-        )
-    }
-}
-
-/// A billowed cloud.
-pub(crate) struct Billowed {
-    /// Its level set.
-    pub level_set: Scalar,
-    /// The cleared layers `N_i^c`.
-    cleared: Vec<Scalar>,
-    /// `Q_i` for the layers after the first.
-    q: Vec<f32>,
-}
-
-/// The three-layer cloud with canyon clearing `b` (eq 3.8).
-pub(crate) fn billowed(b: f32, grid: usize) -> Result<Scalar> {
-    Ok(Wedge::new(grid)?.cloud(b)?.level_set)
-}
-
 fn run_wedge(ctx: &Context, look: Look) -> Result<()> {
     let start = Instant::now();
-    let (grid, pixels) = by_size(ctx.size, [(16, 64), (64, 256), (128, 512)]);
+    let (grid, pixels) = ctx.size.pick((16, 64), (64, 256), (128, 512));
     io::create_output_dir(&ctx.out)?;
     let wedge = Wedge::new(grid)?;
     let mut panels = Vec::new();
@@ -336,10 +239,6 @@ fn close_up(frame: Domain, zoom: f32) -> Result<Domain> {
         frame.cell / zoom,
         frame.dims,
     )?)
-}
-
-fn mean(values: &[f64]) -> f64 {
-    values.iter().sum::<f64>() / values.len() as f64
 }
 
 fn run_geometry(ctx: &Context) -> Result<()> {

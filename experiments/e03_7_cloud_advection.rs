@@ -28,9 +28,7 @@ use anyhow::Result;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::cloud_figures::{domain, write_panels, write_table, Look, Panel};
-use crate::e03_4_billow::billowed;
-use crate::model_render::by_size;
+use crate::cloud_figures::{billowed, domain, write_panels, write_table, Look, Panel};
 use crate::registry::{Context, Experiment};
 use smokelab::domain::Domain;
 use smokelab::field::algebra::clamp;
@@ -96,7 +94,7 @@ fn detachment(density: &Scalar, dom: Domain) -> (usize, f64) {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (grid, pixels) = by_size(ctx.size, [(16, 64), (64, 256), (128, 512)]);
+    let (grid, pixels) = ctx.size.pick((16, 64), (64, 256), (128, 512));
     let config = Config {
         amplitudes: [0.0, 1.0, 3.0],
         frequency: 3.0,

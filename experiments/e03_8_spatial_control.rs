@@ -27,7 +27,6 @@ use serde::Serialize;
 use crate::cloud_figures::{
     base, cloud, panel_rows, write_panels, write_table, Look, Panel, SCALE,
 };
-use crate::model_render::by_size;
 use crate::registry::{Context, Experiment};
 use smokelab::field::ops::constant;
 use smokelab::field::{Scalar, ScalarField};
@@ -69,7 +68,7 @@ struct Config {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (grid, pixels) = by_size(ctx.size, [(16, 64), (64, 320), (128, 640)]);
+    let (grid, pixels) = ctx.size.pick((16, 64), (64, 320), (128, 640));
     io::create_output_dir(&ctx.out)?;
     let noise: Scalar = Arc::new(Perlin::new(0xc10d));
     let ramp = |axis, lo, hi| -> Scalar { Arc::new(Ramp { axis, lo, hi }) };

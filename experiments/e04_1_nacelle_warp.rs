@@ -23,24 +23,21 @@
 //! `object.obj`, `reference.obj`, `warped_1.obj` (surface-net meshes of
 //! `L_O`, `L_r`, `L_r ∘ X_1`) and `manifest.json`.
 
-use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::Result;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::model_render::{by_size, render_densities};
+use crate::model_render::render_densities;
 use crate::plot::{Plot, Series};
 use crate::registry::{Context, Experiment};
 use crate::table::write_rows;
-use smokelab::domain::Domain;
-use smokelab::field::algebra::max;
-use smokelab::field::{ops, Scalar, ScalarField};
+use crate::warp_figures::{domain, object, reference};
+use smokelab::field::{ops, ScalarField};
 use smokelab::grid::ScalarGrid;
 use smokelab::io::{self, manifest::Manifest};
 use smokelab::model::mesh::Mesh;
-use smokelab::model::shape;
 use smokelab::model::warp::Nacelle;
 
 /// Registry entry.
@@ -52,43 +49,6 @@ pub const EXPERIMENT: Experiment = Experiment {
     cost: "~2 s",
     run,
 };
-
-/// A cone along −y from `apex`, half-angle `angle`, cut at `height`:
-/// `min((h sin α − ρ cos α), height − h)` with `h` the depth below the apex
-/// and `ρ` the distance from the axis — positive inside, slope 1 on the mantle.
-struct Cone {
-    apex: Vec3,
-    angle: f32,
-    height: f32,
-}
-
-impl ScalarField for Cone {
-    fn eval(&self, p: Vec3) -> f32 {
-        let q = p - self.apex;
-        let h = -q.y;
-        let rho = (q.x * q.x + q.z * q.z).sqrt();
-        let mantle = h * self.angle.sin() - rho * self.angle.cos();
-        mantle.min(self.height - h)
-    }
-}
-
-/// The object of fig 4.1: a cone and two linked tori, the cone through one
-/// torus.
-pub(crate) fn object() -> Result<Scalar> {
-    let a = shape::torus(Vec3::new(-0.2, 0.15, 0.0), Vec3::Y, 0.38, 0.1)?;
-    let b = shape::torus(Vec3::new(0.18, 0.15, 0.0), Vec3::Z, 0.38, 0.1)?;
-    let cone: Scalar = Arc::new(Cone {
-        apex: Vec3::new(-0.25, 0.55, 0.0),
-        angle: 0.35,
-        height: 1.2,
-    });
-    Ok(max(max(a, b), cone))
-}
-
-/// The reference of fig 4.1: a sphere's signed distance.
-pub(crate) fn reference() -> Scalar {
-    shape::sphere(Vec3::ZERO, 0.5)
-}
 
 #[derive(Serialize)]
 struct Config {
@@ -110,7 +70,7 @@ struct Row {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (grid, pixels) = by_size(ctx.size, [(20, 80), (64, 320), (128, 640)]);
+    let (grid, pixels) = ctx.size.pick((20, 80), (64, 320), (128, 640));
     let config = Config {
         iterations: 4,
         h: 1e-3,
@@ -119,7 +79,7 @@ fn run(ctx: &Context) -> Result<()> {
         band: 0.2,
     };
     io::create_output_dir(&ctx.out)?;
-    let dom = Domain::new(Vec3::splat(-1.0), 2.0 / grid as f32, [grid; 3])?;
+    let dom = domain(grid)?;
     let (object, reference) = (object()?, reference());
     let near = ScalarGrid::from_field(dom, &*object);
     let band: Vec<Vec3> = ndarray::indices(dom.shape())

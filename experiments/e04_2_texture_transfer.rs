@@ -24,11 +24,10 @@ use anyhow::Result;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::e04_1_nacelle_warp::{object, reference};
-use crate::model_render::{by_size, render_densities};
+use crate::model_render::render_densities;
 use crate::registry::{Context, Experiment};
 use crate::table::write_rows;
-use smokelab::domain::Domain;
+use crate::warp_figures::{domain, object, reference};
 use smokelab::field::algebra::mul;
 use smokelab::field::{ops, ScalarField, Vector};
 use smokelab::io::{self, manifest::Manifest};
@@ -97,7 +96,7 @@ struct Row {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (grid, pixels) = by_size(ctx.size, [(20, 80), (64, 384), (128, 768)]);
+    let (grid, pixels) = ctx.size.pick((20, 80), (64, 384), (128, 768));
     let config = Config {
         iterations: 1,
         squares: SQUARES,
@@ -105,7 +104,7 @@ fn run(ctx: &Context) -> Result<()> {
         pixels,
     };
     io::create_output_dir(&ctx.out)?;
-    let dom = Domain::new(Vec3::splat(-1.0), 2.0 / grid as f32, [grid; 3])?;
+    let dom = domain(grid)?;
     let warp = Nacelle {
         reference: reference(),
         object: object()?,

@@ -28,7 +28,7 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use serde::Serialize;
 
-use crate::model_render::{by_size, palette, render_densities};
+use crate::model_render::{palette, render_densities};
 use crate::registry::{Context, Experiment};
 use crate::table::write_rows;
 use smokelab::domain::Domain;
@@ -84,7 +84,7 @@ struct Counts {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (grid, pixels) = by_size(ctx.size, [(24, 96), (64, 384), (160, 768)]);
+    let (grid, pixels) = ctx.size.pick((24, 96), (64, 384), (160, 768));
     let config = Config {
         radius: 0.8,
         knives: 5,

@@ -23,13 +23,11 @@
 
 use anyhow::Result;
 use smokelab::scenario::Scenario;
-use smokelab::scenario::SolverConfig;
 
-use crate::density_compare::{self as dc, Look, ModeRun};
-use crate::registry::{Context, Experiment, Size};
+use crate::density_compare::{self as dc, ModeRun};
+use crate::registry::{Context, Experiment};
 use smokelab::density::DensityMode;
 use smokelab::io::{self, manifest::Manifest};
-use smokelab::scenario::hot_cold::HotColdConfig;
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -43,51 +41,7 @@ pub const EXPERIMENT: Experiment = Experiment {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = std::time::Instant::now();
-    let base = HotColdConfig::default();
-    let (config, look) = match ctx.size {
-        Size::Smoke => (
-            HotColdConfig {
-                solver: SolverConfig {
-                    res: 16,
-                    frames: 12,
-                    metrics_every: 4,
-                    ..base.solver.clone()
-                },
-                ..base
-            },
-            Look {
-                slice: 128,
-                render: 64,
-            },
-        ),
-        Size::Default => (
-            HotColdConfig {
-                solver: SolverConfig {
-                    frames: 100,
-                    metrics_every: 10,
-                    ..base.solver.clone()
-                },
-                ..base
-            },
-            Look {
-                slice: 320,
-                render: 256,
-            },
-        ),
-        Size::Full => (
-            HotColdConfig {
-                solver: SolverConfig {
-                    metrics_every: 10,
-                    ..base.solver.clone()
-                },
-                ..base
-            },
-            Look {
-                slice: 400,
-                render: 320,
-            },
-        ),
-    };
+    let (config, look) = dc::hot_cold_size(ctx.size, None);
     let capture: Vec<usize> = (1..=6).map(|i| i * config.solver.frames / 6).collect();
     let modes = [
         ModeRun::new(&config, DensityMode::Gridless),

@@ -36,9 +36,8 @@
 
 use anyhow::Result;
 use smokelab::scenario::Scenario;
-use smokelab::scenario::SolverConfig;
 
-use crate::density_compare::{self as dc, Look, ModeRun};
+use crate::density_compare::{self as dc, ModeRun};
 use crate::panels;
 use crate::registry::{Context, Experiment, Size};
 use smokelab::density::DensityMode;
@@ -61,52 +60,7 @@ pub const EXPERIMENT: Experiment = Experiment {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = std::time::Instant::now();
-    let base = HotColdConfig::default();
-    let (config, look) = match ctx.size {
-        Size::Smoke => (
-            HotColdConfig {
-                solver: SolverConfig {
-                    res: 16,
-                    frames: 12,
-                    metrics_every: 4,
-                    ..base.solver.clone()
-                },
-                ..base
-            },
-            Look {
-                slice: 128,
-                render: 64,
-            },
-        ),
-        Size::Default => (
-            HotColdConfig {
-                solver: SolverConfig {
-                    res: 40,
-                    frames: 100,
-                    metrics_every: 10,
-                    ..base.solver.clone()
-                },
-                ..base
-            },
-            Look {
-                slice: 320,
-                render: 256,
-            },
-        ),
-        Size::Full => (
-            HotColdConfig {
-                solver: SolverConfig {
-                    metrics_every: 10,
-                    ..base.solver.clone()
-                },
-                ..base
-            },
-            Look {
-                slice: 400,
-                render: 320,
-            },
-        ),
-    };
+    let (config, look) = dc::hot_cold_size(ctx.size, Some(40));
     let capture: Vec<usize> = (1..=4).map(|i| i * config.solver.frames / 4).collect();
     let head_on = HotColdConfig {
         offset: 0.0,

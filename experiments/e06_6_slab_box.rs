@@ -53,7 +53,7 @@ use image::RgbImage;
 use crate::model_render::render_densities;
 use crate::panels::{self, Labels};
 use crate::plot::{LegendPosition, Plot, Series};
-use crate::registry::{Context, Experiment, Size};
+use crate::registry::{Context, Experiment};
 use crate::run::{self, RunOptions, SaveFrames};
 use crate::table::Columns;
 use smokelab::advection::Scheme;
@@ -136,11 +136,9 @@ const CASES: [Case; 7] = [
 
 fn run(ctx: &Context) -> Result<()> {
     let base = SlabBoxConfig::default();
-    let (res, frames) = match ctx.size {
-        Size::Smoke => (26, 12),
-        Size::Default => (40, base.solver.frames),
-        Size::Full => (50, base.solver.frames),
-    };
+    let (res, frames) = ctx
+        .size
+        .pick((26, 12), (40, base.solver.frames), (50, base.solver.frames));
     // The notes' frames, scaled to shorter runs.
     let saved: Vec<usize> = FRAMES
         .iter()

@@ -68,7 +68,7 @@ use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
 use crate::sphere_wall_series::{
-    fastest_render, owned_frames, plot_costs, study_size, warm_up, CostRow, Setup, TIMING_PASSES,
+    fastest_render, owned_frames, plot_costs, CostRow, Setup, TIMING_PASSES,
 };
 use crate::table::write_rows;
 use image::RgbImage;
@@ -90,14 +90,8 @@ const MARCHES: [(&str, f32); 2] = [("march=cell", 1.0), ("march=cell/10", 10.0)]
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (w, h) = study_size(ctx.size);
-    let Setup { config, flow, wall } = Setup::new(ctx)?;
+    let (Setup { config, flow, wall }, (w, h)) = Setup::warmed_study(ctx)?;
     let f = flow.frames();
-    warm_up(
-        &AdvectedWall::gridless(&wall, None, &flow, 0)?,
-        &flow,
-        (w, h),
-    )?;
     let mut gridded = GriddedWall::new(&wall, flow.domain);
     let mut rows = vec![];
     let mut strip = vec![];

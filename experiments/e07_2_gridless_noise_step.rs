@@ -48,7 +48,7 @@ use image::{Rgb, RgbImage};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::registry::{Context, Experiment, Size};
+use crate::registry::{Context, Experiment};
 use crate::table::write_rows;
 use smokelab::domain::Domain;
 use smokelab::field::{ops, Scalar, ScalarField, Vector, VectorField};
@@ -188,11 +188,9 @@ fn jacobian(density: &ScalarGrid, u: &dyn VectorField, dt: f32) -> (f64, f64) {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (grid_res, pixels, tile_res) = match ctx.size {
-        Size::Smoke => (32, 128, 32),
-        Size::Default => (128, 768, 64),
-        Size::Full => (256, 1536, 64),
-    };
+    let (grid_res, pixels, tile_res) =
+        ctx.size
+            .pick((32, 128, 32), (128, 768, 64), (256, 1536, 64));
     let config = Config {
         spectral: SpectralParams {
             res: tile_res,

@@ -56,9 +56,7 @@
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{
-    figure_config, figure_size, run_picture, Holding, March, Panel, Picture,
-};
+use crate::sphere_wall_series::{last_sixth_picture, run_picture, March};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {
@@ -69,29 +67,6 @@ pub const EXPERIMENT: Experiment = Experiment {
     cost: "~3.5 min",
     run,
 };
-
-/// Gridless frames at the end of the run: the notes' 10 of 60.
-pub(crate) fn last_sixth(frames: usize) -> usize {
-    (frames / 6).max(1)
-}
-
-/// The picture of 07-6 and 07-7: the wall gridded but for its last sixth
-/// of frames, rendered with each of `marches`, the experiment's own first.
-pub(crate) fn last_sixth_picture(ctx: &Context, id: &str, marches: &[March]) -> Picture {
-    let config = figure_config(ctx.size);
-    let f = config.frames;
-    let k = last_sixth(f);
-    let holding = Holding::Gridless { frames: k };
-    Picture {
-        title: format!("{id}: {} gridded + {k} gridless", f - k),
-        config,
-        size: figure_size(ctx.size),
-        panels: marches
-            .iter()
-            .map(|&m| Panel::marched(holding, m))
-            .collect(),
-    }
-}
 
 fn run(ctx: &Context) -> Result<()> {
     let marches = [March::CELL, March::jittered(1.0), March::FINE];

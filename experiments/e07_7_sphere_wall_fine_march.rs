@@ -35,9 +35,8 @@
 
 use anyhow::Result;
 
-use crate::e07_6_sphere_wall_aliased::last_sixth_picture;
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{run_picture, March};
+use crate::sphere_wall_series::{last_sixth_picture, run_picture, March};
 
 /// Registry entry.
 pub const EXPERIMENT: Experiment = Experiment {

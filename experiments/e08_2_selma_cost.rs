@@ -43,9 +43,7 @@ use std::time::Instant;
 use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
-use crate::sphere_wall_series::{
-    owned_frames, plot_costs, study_size, warm_up, CostRow, Setup, TIMING_PASSES,
-};
+use crate::sphere_wall_series::{owned_frames, plot_costs, warm_up, CostRow, Setup, TIMING_PASSES};
 use crate::table::write_rows;
 use smokelab::io::{self, manifest::Manifest};
 use smokelab::scenario::sphere_wall::{AdvectedWall, SelmaWall};
@@ -65,14 +63,8 @@ const MARCH_DIV: f32 = 10.0;
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (w, h) = study_size(ctx.size);
-    let Setup { config, flow, wall } = Setup::new(ctx)?;
+    let (Setup { config, flow, wall }, (w, h)) = Setup::warmed_study(ctx)?;
     let f = flow.frames();
-    warm_up(
-        &AdvectedWall::gridless(&wall, None, &flow, 0)?,
-        &flow,
-        (w, h),
-    )?;
     let unadvected = SelmaWall::new(&flow, None)?;
     warm_up(&AdvectedWall::selma(&wall, &unadvected), &flow, (w, h))?;
     type Build<'a> = Box<dyn Fn() -> Result<AdvectedWall> + 'a>;

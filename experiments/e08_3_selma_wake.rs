@@ -87,8 +87,8 @@ use image::RgbImage;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::e03_4_billow::billowed;
-use crate::model_render::{by_size, render_densities};
+use crate::cloud_figures::billowed;
+use crate::model_render::render_densities;
 use crate::panels;
 use crate::registry::{Context, Experiment};
 use crate::table::write_rows;
@@ -199,7 +199,7 @@ struct Row {
 }
 
 fn run(ctx: &Context) -> Result<()> {
-    let (n, pixels) = by_size(ctx.size, [(24, 64), (48, 256), (96, 512)]);
+    let (n, pixels) = ctx.size.pick((24, 64), (48, 256), (96, 512));
     let start = Instant::now();
     io::create_output_dir(&ctx.out)?;
     let cloud0 = scaled(ops::mask(billowed(1.0, 2 * n)?), CLOUD_SCALE, CLOUD);

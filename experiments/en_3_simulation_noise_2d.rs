@@ -38,7 +38,7 @@ use anyhow::Result;
 use glam::{Vec2, Vec3};
 use serde::Serialize;
 
-use crate::registry::{Context, Experiment, Size};
+use crate::registry::{Context, Experiment};
 use crate::table::write_rows;
 use smokelab::field::VectorField;
 use smokelab::io::{self, manifest::Manifest};
@@ -156,11 +156,7 @@ fn costs(groups: &[[NoiseKind; 3]], rounds: usize) -> Result<Vec<CostRow>> {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let pixels = match ctx.size {
-        Size::Smoke => 96,
-        Size::Default => 384,
-        Size::Full => 1024,
-    };
+    let pixels = ctx.size.pick(96, 384, 1024);
     let dimension = 0.2;
     let config = Config {
         kinds: [
@@ -228,10 +224,7 @@ fn run(ctx: &Context) -> Result<()> {
             serde_json::json!({ "rms_speed": rms, "relative_divergence": div / grad }),
         );
     }
-    let rounds = match ctx.size {
-        Size::Smoke => 20,
-        _ => 400,
-    };
+    let rounds = ctx.size.pick(20, 400, 400);
     let cost = costs(
         &[
             [NoiseKind::FastSim, NoiseKind::Value, NoiseKind::SmoothSim],

@@ -23,7 +23,7 @@ use anyhow::Result;
 use glam::{Vec2, Vec3};
 use serde::Serialize;
 
-use crate::registry::{Context, Experiment, Size};
+use crate::registry::{Context, Experiment};
 use smokelab::io::{self, manifest::Manifest};
 use smokelab::noise::artist::{artist_noise, Spline};
 use smokelab::noise::lic;
@@ -51,11 +51,7 @@ struct Config {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let pixels = match ctx.size {
-        Size::Smoke => 96,
-        Size::Default => 512,
-        Size::Full => 1024,
-    };
+    let pixels = ctx.size.pick(96, 512, 1024);
     let config = Config {
         radius: 2.6,
         centre: [4.0, 4.0, 0.5],

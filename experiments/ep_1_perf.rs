@@ -110,11 +110,11 @@ pub const EXPERIMENT: Experiment = Experiment {
 
 /// Resolutions, warm-up steps and timed steps of a run size.
 fn plan(size: Size) -> (Vec<usize>, usize, usize) {
-    match size {
-        Size::Smoke => (vec![16, 32], 1, 3),
-        Size::Default => (vec![32, 64, 128, 256], 2, 8),
-        Size::Full => (vec![32, 64, 128, 256], 10, 15),
-    }
+    size.pick(
+        (vec![16, 32], 1, 3),
+        (vec![32, 64, 128, 256], 2, 8),
+        (vec![32, 64, 128, 256], 10, 15),
+    )
 }
 
 fn run(ctx: &Context) -> Result<()> {

@@ -230,11 +230,11 @@ struct Levels {
 
 impl Levels {
     fn of(size: Size) -> Self {
-        let (deformation, zalesak, taylor_green) = match size {
-            Size::Smoke => (vec![16, 24], vec![16, 24], vec![16, 32]),
-            Size::Default => (vec![32, 64], vec![32, 48], vec![32, 64]),
-            Size::Full => (vec![32, 64, 128], vec![32, 64, 128], vec![32, 64, 128]),
-        };
+        let (deformation, zalesak, taylor_green) = size.pick(
+            (vec![16, 24], vec![16, 24], vec![16, 32]),
+            (vec![32, 64], vec![32, 48], vec![32, 64]),
+            (vec![32, 64, 128], vec![32, 64, 128], vec![32, 64, 128]),
+        );
         Self {
             deformation,
             zalesak,

@@ -7,6 +7,8 @@
 
 // Commands and the run driver.
 pub mod cli;
+mod resume;
+mod experiment_all;
 pub mod run;
 pub mod checkpoint;
 pub mod frames;
@@ -35,6 +37,7 @@ mod density_compare;
 mod sphere_wall_series;
 mod model_render;
 mod cloud_figures;
+mod warp_figures;
 mod e03_3_cloud_layers;
 mod e03_4_billow;
 mod e03_7_cloud_advection;

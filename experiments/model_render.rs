@@ -6,7 +6,6 @@ use anyhow::Result;
 use glam::Vec3;
 use image::RgbImage;
 
-use crate::registry::Size;
 use smokelab::domain::Domain;
 use smokelab::field::Scalar;
 use smokelab::render::output::{self, Display};
@@ -68,14 +67,4 @@ pub(crate) fn render_framed(
     };
     let r = render(&scene, &settings)?;
     Ok(output::preview(&r.image, &Display::default()))
-}
-
-/// `(grid cells per axis, render pixels)` for the run size, from the
-/// `[smoke, default, full]` choices.
-pub(crate) fn by_size(size: Size, choices: [(usize, u32); 3]) -> (usize, u32) {
-    match size {
-        Size::Smoke => choices[0],
-        Size::Default => choices[1],
-        Size::Full => choices[2],
-    }
 }

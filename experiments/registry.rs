@@ -23,6 +23,18 @@ pub enum Size {
     Full,
 }
 
+impl Size {
+    /// The one of `smoke`, `default` and `full` that belongs to this size:
+    /// how every experiment picks its grid, frames and pixels.
+    pub fn pick<T>(self, smoke: T, default: T, full: T) -> T {
+        match self {
+            Size::Smoke => smoke,
+            Size::Default => default,
+            Size::Full => full,
+        }
+    }
+}
+
 /// Where and how an experiment runs.
 #[derive(Clone, Debug)]
 pub struct Context {

@@ -72,7 +72,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::density_compare as dc;
 use crate::plot::{LegendPosition, Plot, Series, Style, PALETTE};
-use crate::registry::{Context, Experiment, Size};
+use crate::registry::{Context, Experiment};
 use crate::table::{read_rows, write_rows};
 use smokelab::advection::Scheme;
 use smokelab::density::DensityMode;
@@ -289,11 +289,7 @@ fn scheme_name(s: Scheme) -> &'static str {
 
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
-    let (res, steps) = match ctx.size {
-        Size::Smoke => (12, 6),
-        Size::Default => (32, 60),
-        Size::Full => (48, 90),
-    };
+    let (res, steps) = ctx.size.pick((12, 6), (32, 60), (48, 90));
     let base = HotColdConfig {
         solver: SolverConfig {
             res,

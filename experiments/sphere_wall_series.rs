@@ -44,11 +44,7 @@ use smokelab::scenario::sphere_wall::{
 
 /// The wall and flow of a run size.
 pub(crate) fn config(size: Size) -> SphereWallConfig {
-    let (res, frames) = match size {
-        Size::Smoke => (16, 6),
-        Size::Default => (32, 30),
-        Size::Full => (50, 60),
-    };
+    let (res, frames) = size.pick((16, 6), (32, 30), (50, 60));
     SphereWallConfig {
         res,
         frames,
@@ -75,10 +71,7 @@ pub(crate) fn config(size: Size) -> SphereWallConfig {
 /// frame (Δt 0.2, 12 s) stretch more (3.9 / 9.8, 07-6's coherent error
 /// 13.7× 07-4's) but mix the rows to grey and carry them across the box.
 pub(crate) fn figure_config(size: Size) -> SphereWallConfig {
-    let (res, frames) = match size {
-        Size::Smoke => (24, 12),
-        Size::Default | Size::Full => (50, 60),
-    };
+    let (res, frames) = size.pick((24, 12), (50, 60), (50, 60));
     SphereWallConfig {
         res,
         frames,
@@ -92,10 +85,7 @@ pub(crate) fn figure_config(size: Size) -> SphereWallConfig {
 
 /// Image size of 07-4 … 07-7.
 pub(crate) fn figure_size(size: Size) -> (u32, u32) {
-    match size {
-        Size::Smoke => (128, 96),
-        Size::Default | Size::Full => (640, 480),
-    }
+    size.pick((128, 96), (640, 480), (640, 480))
 }
 
 /// What every sphere-wall experiment starts from: the run size's
@@ -121,24 +111,27 @@ impl Setup {
         let wall = Wall::new(&config);
         Ok(Self { config, flow, wall })
     }
+
+    /// The set-up of a cost study (07-10, 08-2) at the run size, with its
+    /// image size ([`study_size`]), after one untimed gridless render has
+    /// warmed the caches.
+    pub fn warmed_study(ctx: &Context) -> Result<(Self, (u32, u32))> {
+        let size = study_size(ctx.size);
+        let setup = Self::new(ctx)?;
+        let state = AdvectedWall::gridless(&setup.wall, None, &setup.flow, 0)?;
+        warm_up(&state, &setup.flow, size)?;
+        Ok((setup, size))
+    }
 }
 
 /// Image size of the one-picture experiments.
 pub(crate) fn picture_size(size: Size) -> (u32, u32) {
-    match size {
-        Size::Smoke => (64, 48),
-        Size::Default => (320, 240),
-        Size::Full => (640, 480),
-    }
+    size.pick((64, 48), (320, 240), (640, 480))
 }
 
 /// Image size of the cost studies (many renders each).
 pub(crate) fn study_size(size: Size) -> (u32, u32) {
-    match size {
-        Size::Smoke => (64, 48),
-        Size::Default => (160, 120),
-        Size::Full => (640, 480),
-    }
+    size.pick((64, 48), (160, 120), (640, 480))
 }
 
 /// How one picture holds the wall over the `F` recorded frames.
@@ -431,6 +424,29 @@ struct Built {
     holding: Holding,
     state: AdvectedWall,
     measures: HoldingMeasures,
+}
+
+/// Gridless frames at the end of the run: the notes' 10 of 60.
+fn last_sixth(frames: usize) -> usize {
+    (frames / 6).max(1)
+}
+
+/// The picture of 07-6 and 07-7: the wall gridded but for its last sixth
+/// of frames, rendered with each of `marches`, the experiment's own first.
+pub(crate) fn last_sixth_picture(ctx: &Context, id: &str, marches: &[March]) -> Picture {
+    let config = figure_config(ctx.size);
+    let f = config.frames;
+    let k = last_sixth(f);
+    let holding = Holding::Gridless { frames: k };
+    Picture {
+        title: format!("{id}: {} gridded + {k} gridless", f - k),
+        config,
+        size: figure_size(ctx.size),
+        panels: marches
+            .iter()
+            .map(|&m| Panel::marched(holding, m))
+            .collect(),
+    }
 }
 
 /// The picture experiments: run the flow, build each panel's holding (once
