@@ -45,8 +45,8 @@ pub struct SolverConfig {
     pub gravity: f32,
     /// Semi-Lagrangian backtrace: `euler`, `rk2` or `rk3`.
     pub backtrace: Backtrace,
-    /// Advection scheme for velocity and gridded densities: `sl`, `quick` or
-    /// `maccormack` (gridless and SELMA densities always trace semi-Lagrangian
+    /// Advection scheme for velocity and gridded densities: `sl`, `quick`,
+    /// `maccormack` or `bfecc` (gridless and SELMA densities always trace semi-Lagrangian
     /// departure points; the scheme then moves the velocity).
     pub advection: Scheme,
     /// QUICK: split steps beyond the CFL bound into sub-steps (false: refuse them).
@@ -206,7 +206,7 @@ impl SolverConfig {
         if self.box_kind == BoxKind::Closed {
             if self.advection == Scheme::Quick {
                 return Err(InputError::new(
-                    "box closed needs advection sl or maccormack (QUICK's lattice is periodic; advection is quick)",
+                    "box closed needs advection sl, maccormack or bfecc (QUICK's lattice is periodic; advection is quick)",
                 ));
             }
             if self.density != DensityMode::Gridded {
