@@ -32,7 +32,7 @@ pub struct SolverConfig {
     /// Edge length L of the cubic box, world units.
     pub size: f32,
     /// The box's faces: `periodic` (the notes' FFT box) or `closed` (six
-    /// walls with no normal flow; SL or MacCormack advection and gridded densities).
+    /// walls with no normal flow; SL, MacCormack or BFECC advection and gridded densities).
     #[serde(rename = "box")]
     pub box_kind: BoxKind,
     /// Number of time steps (one step per frame).
