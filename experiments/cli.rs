@@ -152,7 +152,7 @@ pub struct SolverFlags {
     #[arg(long, allow_negative_numbers = true)]
     #[serde(skip_serializing_if = "Option::is_none")]
     pub size: Option<f32>,
-    /// The box's faces: periodic, or closed (walls with no normal flow; SL or MacCormack with gridded density only).
+    /// The box's faces: periodic, or closed (walls with no normal flow; SL, MacCormack or BFECC with gridded density only).
     #[arg(long = "box", value_enum)]
     #[serde(rename = "box", skip_serializing_if = "Option::is_none")]
     pub box_kind: Option<BoxKind>,

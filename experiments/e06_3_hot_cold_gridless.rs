@@ -5,7 +5,9 @@
 //! grids (eq 7.4 with the source, DESIGN.md "Gridless density with
 //! sources"). Fig 6.3 is the frame sequence, fig 6.4 one frame larger. The
 //! same flow is also run gridded and SELMA to put the gridless metrics in
-//! context (06-5 compares the pictures).
+//! context (06-5 compares the pictures), and gridded once more with
+//! MacCormack advection (`gridded-maccormack`, velocity and densities), the
+//! stronger gridded baseline the claims table measures against too.
 //!
 //! Run: `smokelab experiment 06-3` (the notes' 50³, 100 steps; about 4
 //! minutes on 2 free cores, most of it the gridless buoyancy queries, which
@@ -17,8 +19,8 @@
 //! fields at six frames, fig 6.3), `sequence_render.png` (the same frames
 //! ray-marched), `frame.png` and `frame_render.png` (the last frame larger,
 //! fig 6.4), `metrics_*.png/.svg` and `metrics.png` (mass retained,
-//! symmetry, detail, sub-grid energy, time per step and memory of the three
-//! modes over time), `summary.csv`, `manifest.json`, and one folder per
+//! symmetry, detail, sub-grid energy, time per step and memory of the four
+//! runs over time), `summary.csv`, `manifest.json`, and one folder per
 //! mode with its `metrics.csv` and `manifest.json` (volumes git-ignored).
 
 use anyhow::Result;
@@ -47,6 +49,7 @@ fn run(ctx: &Context) -> Result<()> {
         ModeRun::new(&config, DensityMode::Gridless),
         ModeRun::new(&config, DensityMode::Gridded),
         ModeRun::new(&config, DensityMode::Selma),
+        ModeRun::gridded_maccormack(&config),
     ];
     for m in &modes {
         m.config.validate()?;

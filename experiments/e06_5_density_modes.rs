@@ -18,7 +18,10 @@
 //! `selma-head-on`, run the head-on variant (`offset = 0`), where the
 //! problem is exactly mirror-symmetric and `mirror_error` measures how each
 //! mode keeps that symmetry (in the offset rows it measures the offset;
-//! experiment S-1 measures the half turn those keep). `--full` adds the
+//! experiment S-1 measures the half turn those keep). A fourth row,
+//! `gridded-maccormack`, is the offset run gridded with MacCormack
+//! advection of velocity and densities (Selle et al. 2008): the stronger
+//! gridded baseline beside the notes' semi-Lagrangian one. `--full` adds the
 //! symmetry control `gridless-smooth-head-on` and SELMA^fine.
 //!
 //! Run: `smokelab experiment 06-5` (40³, 100 steps; about 3 minutes on 2
@@ -26,8 +29,8 @@
 //! minutes; `--smoke` is 16³ for tests).
 //!
 //! Writes `results/06-5/`: `side_by_side.png` (one row per run, named in
-//! the image — gridded, gridless, SELMA, then the three head-on[, then
-//! gridless-smooth-head-on, SELMA^fine] — mid-plane slices of the density
+//! the image — gridded, gridless, SELMA, gridded-maccormack, then the three
+//! head-on[, then gridless-smooth-head-on, SELMA^fine] — mid-plane slices of the density
 //! fields at four frames, each column headed by its frame and time),
 //! `side_by_side_render.png` (the same, ray-marched),
 //! `final.png` (the last frame of every mode, larger, left to right in the
@@ -79,6 +82,7 @@ fn run(ctx: &Context) -> Result<()> {
                 .map(|&m| named(ModeRun::new(&head_on, m), "-head-on")),
         )
         .collect();
+    modes.insert(3, ModeRun::gridded_maccormack(&config));
     if ctx.size == Size::Full {
         modes.push(named(
             ModeRun::gridless_smooth(&head_on, SMOOTH_EDGE),

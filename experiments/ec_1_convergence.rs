@@ -113,6 +113,8 @@ fn studies(size: Size) -> Vec<Study> {
     for bt in Backtrace::ALL {
         studies.push(cases::maccormack_uniform(bt, &l.line));
         studies.push(cases::maccormack_rotation(bt, &l.plane));
+        studies.push(cases::bfecc_uniform(bt, &l.line));
+        studies.push(cases::bfecc_rotation(bt, &l.plane));
     }
     studies.push(cases::quick_uniform(Sampling::Point, &l.line_quick));
     studies.push(cases::quick_uniform(Sampling::CellAverage, &l.line_quick));
@@ -120,6 +122,7 @@ fn studies(size: Size) -> Vec<Study> {
     studies.push(cases::taylor_green_sl(&l.plane));
     studies.push(cases::taylor_green_quick(&l.plane));
     studies.push(cases::taylor_green_maccormack(&l.plane));
+    studies.push(cases::taylor_green_bfecc(&l.plane));
     studies.push(cases::projection_mac(&l.cube));
     for bt in Backtrace::ALL {
         let steps = if bt == Backtrace::Rk3 {

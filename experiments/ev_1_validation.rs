@@ -323,6 +323,7 @@ fn taylor_green(levels: &[usize]) -> Vec<Row> {
                 Scheme::Sl => cases::taylor_green_sl(&[res]),
                 Scheme::Quick => cases::taylor_green_quick(&[res]),
                 Scheme::MacCormack => cases::taylor_green_maccormack(&[res]),
+                Scheme::Bfecc => cases::taylor_green_bfecc(&[res]),
             };
             rows.push(Row {
                 case: "taylor-green".into(),

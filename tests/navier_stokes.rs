@@ -114,7 +114,7 @@ fn hot_cold_is_mirror_symmetric_and_buoyant_for_every_scheme_and_mode() {
             // overshoots beside the edge and reverts to SL's, while the edge
             // cell gets `c/2 + c²/2` for SL's `c`).
             let lowest = match (advection, density) {
-                (Scheme::MacCormack, DensityMode::Gridded) => 0.6,
+                (Scheme::MacCormack | Scheme::Bfecc, DensityMode::Gridded) => 0.6,
                 _ => 0.65,
             };
             for (what, r) in [("hot rose", rise), ("cold sank", sink)] {

@@ -47,6 +47,9 @@ fn smooth_error(n: usize, cfl: f32, scheme: advection::Scheme) -> (f64, f64) {
             advection::Scheme::MacCormack => {
                 advection::maccormack_scalar(&q, &vel, dt, Backtrace::Rk2, &mut tmp)
             }
+            advection::Scheme::Bfecc => {
+                advection::bfecc_scalar(&q, &vel, dt, Backtrace::Rk2, &mut tmp)
+            }
         }
         std::mem::swap(&mut q, &mut tmp);
     }

@@ -57,6 +57,14 @@ fn maccormack_is_near_second_order_in_smooth_flow() {
 }
 
 #[test]
+fn bfecc_is_near_second_order_in_smooth_flow() {
+    for bt in Backtrace::ALL {
+        assert_order(&cases::bfecc_uniform(bt, &[32, 64, 128, 256]));
+        assert_order(&cases::bfecc_rotation(bt, &[32, 64, 128]));
+    }
+}
+
+#[test]
 fn gridless_returns_from_the_deformation_at_third_order_in_dt() {
     assert_study(&cases::deformation_gridless_return(&[48, 96, 192]));
 }
@@ -64,6 +72,11 @@ fn gridless_returns_from_the_deformation_at_third_order_in_dt() {
 #[test]
 fn taylor_green_navier_stokes_maccormack_is_first_order() {
     assert_study(&cases::taylor_green_maccormack(&[16, 32, 64]));
+}
+
+#[test]
+fn taylor_green_navier_stokes_bfecc_is_first_order() {
+    assert_order(&cases::taylor_green_bfecc(&[16, 32, 64]));
 }
 
 #[test]

@@ -110,5 +110,29 @@ fn density_experiments_run_at_smoke_size_and_write_their_figures() {
                 "{id}: {summary}"
             );
         }
+        // The MacCormack gridded baseline has its row, every number finite,
+        // and gridless's sub-grid share dwarfs both gridded schemes' (at
+        // smoke size ×50 over each; ×10 asserted).
+        let header: Vec<&str> = summary.lines().next().unwrap().split(',').collect();
+        let row = |mode: &str| -> Vec<f64> {
+            let line = summary
+                .lines()
+                .find(|l| l.split(',').next() == Some(mode))
+                .unwrap_or_else(|| panic!("{id}: no {mode} row in {summary}"));
+            line.split(',')
+                .skip(1)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        };
+        let subgrid = header.iter().position(|&c| c == "hot_subgrid").unwrap() - 1;
+        let mc = row("gridded-maccormack");
+        assert!(mc.iter().all(|v| v.is_finite()), "{id}: {summary}");
+        let gridless = row("gridless")[subgrid];
+        for mode in ["gridded", "gridded-maccormack"] {
+            assert!(
+                gridless > 10.0 * row(mode)[subgrid],
+                "{id}: sub-grid share gridless {gridless} against {mode}: {summary}"
+            );
+        }
     }
 }

@@ -37,9 +37,9 @@ fn v1_smoke_table_orders_and_published_values() {
     let out = smoke_experiment(dir.path(), "V-1");
     let rows = table(&out.join("data.csv"));
     let orders = table(&out.join("orders.csv"));
-    // Two cases × (3 gridded schemes + gridless + SELMA twice) × 2
-    // resolutions, and Taylor–Green's 3 schemes × 2.
-    assert_eq!(rows.len(), 2 * 6 * 2 + 3 * 2, "rows of data.csv");
+    // Two cases × (4 gridded schemes + gridless + SELMA twice) × 2
+    // resolutions, and Taylor–Green's 4 schemes × 2.
+    assert_eq!(rows.len(), 2 * 7 * 2 + 4 * 2, "rows of data.csv");
     for r in &rows {
         assert!(r["seconds"] == "NaN" || num(r, "seconds") >= 0.0);
     }
@@ -52,15 +52,15 @@ fn v1_smoke_table_orders_and_published_values() {
         let gl = num(at("gridless", "-"), "l1");
         let bound = if case == "deformation" { 5e-3 } else { 6e-2 };
         assert!(gl < bound, "{case}: gridless L1 {gl}");
-        for scheme in ["sl", "quick", "maccormack"] {
+        for scheme in ["sl", "quick", "maccormack", "bfecc"] {
             let g = num(at("gridded", scheme), "l1");
             assert!(g > 10.0 * gl, "{case} {scheme}: L1 {g} vs gridless {gl}");
         }
         // QUICK's flux form conserves mass to f32 rounding (measured
-        // ≤ 3e-6); SL and MacCormack change it by per cents.
+        // ≤ 3e-6); SL, MacCormack and BFECC change it by per cents.
         let q = num(at("gridded", "quick"), "mass_change").abs();
         assert!(q < 2e-5, "{case}: QUICK mass change {q}");
-        for scheme in ["sl", "maccormack"] {
+        for scheme in ["sl", "maccormack", "bfecc"] {
             let m = num(at("gridded", scheme), "mass_change").abs();
             assert!(m > 100.0 * q, "{case} {scheme}: mass change {m}");
         }
@@ -89,7 +89,12 @@ fn v1_smoke_table_orders_and_published_values() {
     assert!((2.0..3.2).contains(&gl), "deformation gridless order {gl}");
     // Taylor–Green: every scheme's step is first order (C-1), measured
     // 0.86–0.93 from 16 to 32.
-    for m in ["gridded sl", "gridded quick", "gridded maccormack"] {
+    for m in [
+        "gridded sl",
+        "gridded quick",
+        "gridded maccormack",
+        "gridded bfecc",
+    ] {
         let o = order(&orders, "taylor-green", m);
         assert!((0.75..1.1).contains(&o), "taylor-green {m} order {o}");
     }

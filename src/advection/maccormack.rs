@@ -18,13 +18,20 @@
 //! that range. So the scheme makes no new extrema, is unconditionally stable
 //! like SL, and is not conservative (neither is SL).
 //!
-//! The same three steps serve densities at the cell centres (the departure
+//! BFECC (back and forth error compensation and correction: Dupont & Liu,
+//! J. Comput. Phys. 190, 2003; Kim, Liu, Llamas & Rossignac, "FlowFixer",
+//! 2005) takes the same round trip but corrects the *source* and steps
+//! once more, `φⁿ⁺¹ = A(φⁿ + ½(φⁿ − φ̂ⁿ))`: three SL steps where MacCormack
+//! takes two, also second order in smooth flow. [`Correction`] chooses
+//! between them; the clamp (and the fallback to `φ̂ⁿ⁺¹`) is the same.
+//!
+//! The same steps serve densities at the cell centres (the departure
 //! points traced once per step for every density, forwards and backwards:
 //! [`Departures`]) and each velocity component on its own faces
 //! ([`advect_faces`]), with every [`Backtrace`]; the clamp is one scalar
-//! pass over the departure points (rayon over rows). The forward and
-//! backward steps run on the sweeps' vector kernels; a step costs about
-//! twice SL's, plus the clamp's re-trace of the faces.
+//! pass over the departure points (rayon over rows). The SL steps run on
+//! the sweeps' vector kernels; a MacCormack step costs about twice SL's,
+//! a BFECC step three times, plus the clamp's re-trace of the faces.
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -34,11 +41,22 @@ use super::Backtrace;
 use crate::domain::Domain;
 use crate::grid::{FaceGrid, ScalarGrid, Stencil, Wrap};
 
-/// The MacCormack scheme's per-step scratch: the departure points of the
-/// cell centres (forward and backward), the forward and backward
-/// velocities and densities. Allocated on first use, then reused.
+/// How the round trip's error estimate `½(φⁿ − φ̂ⁿ)` corrects the step.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Correction {
+    /// Selle et al. 2008: added to the forward SL value.
+    MacCormack,
+    /// Dupont & Liu 2003: added to the source, which is then stepped once
+    /// more.
+    Bfecc,
+}
+
+/// The MacCormack (or BFECC) scheme's per-step scratch: the departure
+/// points of the cell centres (forward and backward), the forward and
+/// backward velocities and densities. Allocated on first use, then reused.
 #[derive(Clone, Debug)]
 pub struct MacCormack {
+    correction: Correction,
     backtrace: Backtrace,
     scratch: Option<Box<Scratch>>,
     reverted: usize,
@@ -74,9 +92,15 @@ impl Scratch {
 }
 
 impl MacCormack {
-    /// The scheme tracing departure points with `backtrace`.
+    /// MacCormack tracing departure points with `backtrace`.
     pub fn new(backtrace: Backtrace) -> Self {
+        Self::with_correction(Correction::MacCormack, backtrace)
+    }
+
+    /// The scheme correcting by `correction`, tracing with `backtrace`.
+    pub fn with_correction(correction: Correction, backtrace: Backtrace) -> Self {
         Self {
+            correction,
             backtrace,
             scratch: None,
             reverted: 0,
@@ -120,9 +144,13 @@ impl MacCormack {
             self.scratch = Some(Box::new(Scratch::new(vel)));
         }
         let s = self.scratch.as_mut().expect("allocated above");
-        advect_faces(vel, vel, dt, bt, &mut s.fwd_faces);
-        advect_faces(&s.fwd_faces, vel, -dt, bt, &mut s.bwd_faces);
-        let mut reverted = correct_faces(vel, &s.fwd_faces, &s.bwd_faces, (vel, dt, bt), vel_out);
+        let mut reverted = step_faces(
+            self.correction,
+            vel,
+            (vel, dt, bt),
+            (&mut s.fwd_faces, &mut s.bwd_faces),
+            vel_out,
+        );
         let mut samples: usize = (0..3).map(|a| vel_out.slice(a).len()).sum();
         if !srcs.is_empty() {
             s.forward.trace(vel, dt, bt);
@@ -133,11 +161,13 @@ impl MacCormack {
                     vel.domain(),
                     "maccormack: density on another domain"
                 );
-                s.fwd.set_wrap(src.wrap());
-                s.bwd.set_wrap(src.wrap());
-                interpolate_scalar(src, &s.forward, &mut s.fwd);
-                interpolate_scalar(&s.fwd, &s.backward, &mut s.bwd);
-                reverted += correct_scalar(src, &s.fwd, &s.bwd, &s.forward, dst);
+                reverted += step_scalar(
+                    self.correction,
+                    src,
+                    (&s.forward, &s.backward),
+                    (&mut s.fwd, &mut s.bwd),
+                    dst,
+                );
                 samples += src.as_slice().len();
             }
         }
@@ -156,31 +186,63 @@ fn corner_range(stencil: &Stencil, data: &[f32]) -> (f32, f32) {
         })
 }
 
-/// The corrected value `fwd + ½(src − bwd)`, or `fwd` where that leaves
-/// `[lo, hi]`; whether it reverted.
+/// `cand`, or `fwd` where `cand` leaves `[lo, hi]`; whether it reverted.
 #[inline(always)]
-fn corrected(src: f32, fwd: f32, bwd: f32, (lo, hi): (f32, f32)) -> (f32, bool) {
-    let c = fwd + 0.5 * (src - bwd);
-    if c < lo || c > hi {
+fn clamped(cand: f32, fwd: f32, (lo, hi): (f32, f32)) -> (f32, bool) {
+    if cand < lo || cand > hi {
         (fwd, true)
     } else {
-        (c, false)
+        (cand, false)
     }
 }
 
-/// The correction and clamp at the cell centres: `dst = fwd + ½(src − bwd)`,
-/// reverted to `fwd` outside the range of `src` over the corners around
-/// each forward departure point. Returns the number of reverted cells.
-fn correct_scalar(
+/// `out = base + ½(src − bwd)`, element by element: half the round trip's
+/// error added to the forward values (MacCormack) or to the source
+/// (BFECC). `bwd` `None`: `out` holds the backward values, overwritten.
+fn add_half_error(out: &mut [f32], base: &[f32], src: &[f32], bwd: Option<&[f32]>) {
+    const CHUNK: usize = 1 << 14;
+    out.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
+        let at = c * CHUNK;
+        for (i, o) in out.iter_mut().enumerate() {
+            let m = at + i;
+            let b = bwd.map_or(*o, |b| b[m]);
+            *o = base[m] + 0.5 * (src[m] - b);
+        }
+    });
+}
+
+/// One corrected step of the cell-centred `src` into `dst` along the
+/// departure points `(forward, backward)`, with `(fwd, bwd)` as scratch:
+/// the forward and backward SL steps, the candidate of `correction`, then
+/// the clamp — a candidate outside the range of `src` over the corners
+/// around its forward departure point reverts to the SL value `fwd`.
+/// Returns the number of reverted cells.
+fn step_scalar(
+    correction: Correction,
     src: &ScalarGrid,
-    fwd: &ScalarGrid,
-    bwd: &ScalarGrid,
-    forward: &Departures,
+    (forward, backward): (&Departures, &Departures),
+    (fwd, bwd): (&mut ScalarGrid, &mut ScalarGrid),
     dst: &mut ScalarGrid,
 ) -> usize {
     let d = *forward.domain();
     for g in [src.domain(), fwd.domain(), bwd.domain(), dst.domain()] {
         assert_eq!(g, &d, "maccormack: grid on another domain");
+    }
+    fwd.set_wrap(src.wrap());
+    bwd.set_wrap(src.wrap());
+    interpolate_scalar(src, forward, fwd);
+    interpolate_scalar(fwd, backward, bwd);
+    match correction {
+        Correction::MacCormack => add_half_error(
+            dst.as_slice_mut(),
+            fwd.as_slice(),
+            src.as_slice(),
+            Some(bwd.as_slice()),
+        ),
+        Correction::Bfecc => {
+            add_half_error(bwd.as_slice_mut(), src.as_slice(), src.as_slice(), None);
+            interpolate_scalar(bwd, forward, dst);
+        }
     }
     let (data, wrap, nx) = (src.as_slice(), src.wrap(), d.dims[0]);
     dst.as_slice_mut()
@@ -192,8 +254,7 @@ fn correct_scalar(
             let mut reverted = 0;
             for (i, (o, &p)) in out.iter_mut().zip(points).enumerate() {
                 let range = corner_range(&Stencil::new(p, d.dims, wrap), data);
-                let m = at + i;
-                let (v, back) = corrected(data[m], fwd.as_slice()[m], bwd.as_slice()[m], range);
+                let (v, back) = clamped(*o, fwd.as_slice()[at + i], range);
                 *o = v;
                 reverted += back as usize;
             }
@@ -202,19 +263,20 @@ fn correct_scalar(
         .sum()
 }
 
-/// The correction and clamp on the faces of each component: as
-/// [`correct_scalar`], the departure points of each row of faces traced
-/// again through `(vel, dt, backtrace)` ([`departure_points`]) and the
-/// range taken over the corners of the component's own lattice. In a
-/// closed box the wall faces stay zero. Returns the number of reverted faces.
-fn correct_faces(
+/// One corrected step of the staggered `src` into `dst` through `(vel,
+/// dt, backtrace)`, each component on its own faces, with `(fwd, bwd)` as
+/// scratch: as [`step_scalar`], the departure points of each row of faces
+/// traced again for the clamp ([`departure_points`]) and the range taken
+/// over the corners of the component's own lattice. In a closed box the
+/// wall faces stay zero. Returns the number of reverted faces.
+fn step_faces(
+    correction: Correction,
     src: &FaceGrid,
-    fwd: &FaceGrid,
-    bwd: &FaceGrid,
     (vel, dt, backtrace): (&FaceGrid, f32, Backtrace),
+    (fwd, bwd): (&mut FaceGrid, &mut FaceGrid),
     dst: &mut FaceGrid,
 ) -> usize {
-    for g in [src, fwd, bwd, &*dst] {
+    for g in [src, &*fwd, &*bwd, &*dst] {
         assert_eq!(
             g.domain(),
             vel.domain(),
@@ -222,12 +284,28 @@ fn correct_faces(
         );
         assert_eq!(g.kind(), vel.kind(), "maccormack: faces in another box");
     }
+    advect_faces(src, vel, dt, backtrace, fwd);
+    advect_faces(fwd, vel, -dt, backtrace, bwd);
+    match correction {
+        Correction::MacCormack => {
+            for a in 0..3 {
+                let (f, s, b) = (fwd.slice(a), src.slice(a), bwd.slice(a));
+                add_half_error(dst.slice_mut(a), f, s, Some(b));
+            }
+        }
+        Correction::Bfecc => {
+            for a in 0..3 {
+                add_half_error(bwd.slice_mut(a), src.slice(a), src.slice(a), None);
+            }
+            advect_faces(bwd, vel, dt, backtrace, dst);
+        }
+    }
     let dt_cells = dt / vel.domain().cell;
     let wrap: Wrap = vel.kind().wrap();
     let mut reverted = 0;
     for a in 0..3 {
         let dims = dst.face_dims(a);
-        let (data, f, b) = (src.slice(a), fwd.slice(a), bwd.slice(a));
+        let (data, f) = (src.slice(a), fwd.slice(a));
         reverted += dst
             .slice_mut(a)
             .par_chunks_mut(dims[0])
@@ -250,8 +328,7 @@ fn correct_faces(
                         let mut g = p;
                         g[a] += 0.5;
                         let range = corner_range(&Stencil::new(g, dims, wrap), data);
-                        let m = at + i;
-                        let (v, back) = corrected(data[m], f[m], b[m], range);
+                        let (v, back) = clamped(*o, f[at + i], range);
                         *o = v;
                         reverted += back as usize;
                     }
@@ -264,9 +341,11 @@ fn correct_faces(
     reverted
 }
 
-/// `dst = ` one MacCormack step of the cell-centred `src` through `vel`
-/// over `dt` (allocating; a simulation's step uses [`MacCormack::advect`]).
-pub fn maccormack_scalar(
+/// `dst = ` one step of the cell-centred `src` through `vel` over `dt`,
+/// corrected by `correction` (allocating; a simulation's step uses
+/// [`MacCormack::advect`]).
+pub fn corrected_scalar(
+    correction: Correction,
     src: &ScalarGrid,
     vel: &FaceGrid,
     dt: f32,
@@ -277,11 +356,60 @@ pub fn maccormack_scalar(
     let (mut forward, mut backward) = (Departures::new(d), Departures::new(d));
     forward.trace(vel, dt, backtrace);
     backward.trace(vel, -dt, backtrace);
-    let mut fwd = ScalarGrid::zeros(d).with_wrap(src.wrap());
-    let mut bwd = ScalarGrid::zeros(d).with_wrap(src.wrap());
-    interpolate_scalar(src, &forward, &mut fwd);
-    interpolate_scalar(&fwd, &backward, &mut bwd);
-    correct_scalar(src, &fwd, &bwd, &forward, dst);
+    let (mut fwd, mut bwd) = (ScalarGrid::zeros(d), ScalarGrid::zeros(d));
+    step_scalar(
+        correction,
+        src,
+        (&forward, &backward),
+        (&mut fwd, &mut bwd),
+        dst,
+    );
+}
+
+/// `dst = ` one MacCormack step of the cell-centred `src` through `vel`
+/// over `dt` (allocating).
+pub fn maccormack_scalar(
+    src: &ScalarGrid,
+    vel: &FaceGrid,
+    dt: f32,
+    backtrace: Backtrace,
+    dst: &mut ScalarGrid,
+) {
+    corrected_scalar(Correction::MacCormack, src, vel, dt, backtrace, dst);
+}
+
+/// `dst = ` one BFECC step of the cell-centred `src` through `vel` over
+/// `dt` (allocating).
+pub fn bfecc_scalar(
+    src: &ScalarGrid,
+    vel: &FaceGrid,
+    dt: f32,
+    backtrace: Backtrace,
+    dst: &mut ScalarGrid,
+) {
+    corrected_scalar(Correction::Bfecc, src, vel, dt, backtrace, dst);
+}
+
+/// `dst = ` one step of the staggered `src` through `vel` over `dt`, each
+/// component on its own faces, corrected by `correction` (allocating).
+pub fn corrected_faces(
+    correction: Correction,
+    src: &FaceGrid,
+    vel: &FaceGrid,
+    dt: f32,
+    backtrace: Backtrace,
+    dst: &mut FaceGrid,
+) {
+    let (d, kind) = (*vel.domain(), vel.kind());
+    let mut fwd = FaceGrid::zeros(d, kind);
+    let mut bwd = FaceGrid::zeros(d, kind);
+    step_faces(
+        correction,
+        src,
+        (vel, dt, backtrace),
+        (&mut fwd, &mut bwd),
+        dst,
+    );
 }
 
 /// `dst = ` one MacCormack step of the staggered `src` through `vel` over
@@ -293,12 +421,7 @@ pub fn maccormack_faces(
     backtrace: Backtrace,
     dst: &mut FaceGrid,
 ) {
-    let (d, kind) = (*vel.domain(), vel.kind());
-    let mut fwd = FaceGrid::zeros(d, kind);
-    let mut bwd = FaceGrid::zeros(d, kind);
-    advect_faces(src, vel, dt, backtrace, &mut fwd);
-    advect_faces(&fwd, vel, -dt, backtrace, &mut bwd);
-    correct_faces(src, &fwd, &bwd, (vel, dt, backtrace), dst);
+    corrected_faces(Correction::MacCormack, src, vel, dt, backtrace, dst);
 }
 
 #[cfg(test)]

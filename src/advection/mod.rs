@@ -9,7 +9,9 @@
 //! - [`maccormack`] is Selle et al.'s (2008) MacCormack scheme on top of the
 //!   semi-Lagrangian steps: a forward and a backward step, half their round
 //!   trip's error taken off, clamped to the forward stencil's range — second
-//!   order in smooth flow, the stronger gridded baseline.
+//!   order in smooth flow, the stronger gridded baseline; BFECC (Dupont &
+//!   Liu 2003) is the same round trip correcting the source instead, with
+//!   a third SL step.
 //!
 //! [`Scheme`] chooses between them; an [`Advector`] holds the chosen scheme's
 //! per-step state (departure points or frozen face velocities) so that every
@@ -26,7 +28,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::domain::Domain;
 use crate::grid::{FaceGrid, ScalarGrid};
-pub use maccormack::{maccormack_faces, maccormack_scalar, MacCormack};
+pub use maccormack::{
+    bfecc_scalar, corrected_faces, corrected_scalar, maccormack_faces, maccormack_scalar,
+    Correction, MacCormack,
+};
 pub use quick::{CflError, Limiter, Quick, QuickOptions};
 pub(crate) use semi_lagrangian::departure_points_wrapped;
 pub use semi_lagrangian::{
@@ -68,11 +73,14 @@ pub enum Scheme {
     #[serde(rename = "maccormack")]
     #[cfg_attr(feature = "clap", value(name = "maccormack"))]
     MacCormack,
+    /// BFECC (Dupont & Liu 2003; Kim et al. 2005): the round trip's error
+    /// corrects the source, stepped once more; MacCormack's clamp.
+    Bfecc,
 }
 
 impl Scheme {
     /// Every variant, for tests and listings.
-    pub const ALL: [Scheme; 3] = [Scheme::Sl, Scheme::Quick, Scheme::MacCormack];
+    pub const ALL: [Scheme; 4] = [Scheme::Sl, Scheme::Quick, Scheme::MacCormack, Scheme::Bfecc];
 
     /// The name on the command line and in configurations.
     pub fn name(self) -> &'static str {
@@ -80,6 +88,7 @@ impl Scheme {
             Scheme::Sl => "sl",
             Scheme::Quick => "quick",
             Scheme::MacCormack => "maccormack",
+            Scheme::Bfecc => "bfecc",
         }
     }
 }
@@ -128,8 +137,8 @@ pub enum Advector {
         /// Limiter applied to densities.
         density_limiter: Limiter,
     },
-    /// MacCormack: forward and backward semi-Lagrangian steps, corrected
-    /// and clamped; its scratch kept between steps.
+    /// MacCormack or BFECC: forward and backward semi-Lagrangian steps,
+    /// corrected and clamped; its scratch kept between steps.
     MacCormack(Box<MacCormack>),
 }
 
@@ -143,6 +152,10 @@ impl Advector {
                 density_limiter: options.density_limiter,
             },
             Scheme::MacCormack => Advector::MacCormack(Box::new(MacCormack::new(backtrace))),
+            Scheme::Bfecc => Advector::MacCormack(Box::new(MacCormack::with_correction(
+                Correction::Bfecc,
+                backtrace,
+            ))),
         }
     }
 
@@ -207,7 +220,7 @@ impl Advector {
         }
     }
 
-    /// Sub-steps of the last step (always 1 for SL and MacCormack).
+    /// Sub-steps of the last step (always 1 for SL, MacCormack and BFECC).
     pub fn substeps(&self) -> usize {
         match self {
             Advector::SemiLagrangian { .. } | Advector::MacCormack(_) => 1,

@@ -78,6 +78,19 @@
 //! plumes collide. `τ = 0` never re-anchors (pure design (a), the notes'
 //! SELMA for a source-free `ρ₀`).
 //!
+//! The measure sees every pair of neighbours in the box, gas or not, so a
+//! velocity that jumps across the periodic seam re-anchors the map however
+//! still the gas is. Zalesak's rigid rotation `ω(c − y, x − c, 0)` in a
+//! periodic box jumps by `ωL` across `y = 0 ≡ L`: with one turn in 80 steps
+//! at 32³ (experiment V-1), the rows either side of the seam part by
+//! `2π/80 · 31 ≈ 2.4` cells a step, above the default τ = 2, so the map is
+//! re-anchored at every step and the density box-filtered as often —
+//! why V-1's re-anchored SELMA returns worse than SL there (L1 1.53 against
+//! 1.18; measured with `smokelab run zalesak --res 32 --frames 80 --set
+//! dt=7.85 --density selma`: τ = 2.6 gives L1 1.23, τ = 5 gives 1.04, and
+//! τ = 0, one map interpolated across the seam's image, 1.00 with the mass
+//! up 89 %).
+//!
 //! Memory: 9 floats per map cell for the shared map (`D` and its scratch,
 //! the tracked lattice `Y`) and 2 per gas (`R` and its scratch), constant in
 //! the number of steps; a query is one interpolation of `D` and one of `R`,

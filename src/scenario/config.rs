@@ -32,7 +32,7 @@ pub struct SolverConfig {
     /// Edge length L of the cubic box, world units.
     pub size: f32,
     /// The box's faces: `periodic` (the notes' FFT box) or `closed` (six
-    /// walls with no normal flow; SL or MacCormack advection and gridded densities).
+    /// walls with no normal flow; SL, MacCormack or BFECC advection and gridded densities).
     #[serde(rename = "box")]
     pub box_kind: BoxKind,
     /// Number of time steps (one step per frame).
@@ -45,8 +45,8 @@ pub struct SolverConfig {
     pub gravity: f32,
     /// Semi-Lagrangian backtrace: `euler`, `rk2` or `rk3`.
     pub backtrace: Backtrace,
-    /// Advection scheme for velocity and gridded densities: `sl`, `quick` or
-    /// `maccormack` (gridless and SELMA densities always trace semi-Lagrangian
+    /// Advection scheme for velocity and gridded densities: `sl`, `quick`,
+    /// `maccormack` or `bfecc` (gridless and SELMA densities always trace semi-Lagrangian
     /// departure points; the scheme then moves the velocity).
     pub advection: Scheme,
     /// QUICK: split steps beyond the CFL bound into sub-steps (false: refuse them).
@@ -206,7 +206,7 @@ impl SolverConfig {
         if self.box_kind == BoxKind::Closed {
             if self.advection == Scheme::Quick {
                 return Err(InputError::new(
-                    "box closed needs advection sl or maccormack (QUICK's lattice is periodic; advection is quick)",
+                    "box closed needs advection sl, maccormack or bfecc (QUICK's lattice is periodic; advection is quick)",
                 ));
             }
             if self.density != DensityMode::Gridded {
