@@ -50,27 +50,30 @@
 //! sphere on this grid is laminar, steady and axisymmetric (`ω_x` rms
 //! 0.0005 U/D at smoke size): no vortical structure crosses the cloud.
 //!
-//! What it shows (`smokelab experiment 08-3`, default size, 154 s): the
-//! sphere cuts a channel through the middle of the cloud and draws cloud
-//! out behind it into a tail that follows the body; across the path
+//! What it shows (`smokelab experiment 08-3`, default size): the sphere
+//! cuts a channel through the middle of the cloud and draws cloud out
+//! behind it into a tail that follows the body; across the path
 //! (`section.png`, after the passage) the vortex pair has rolled the
 //! cloud up around the path into hooks and a hole, and `ω_x` shows the two
-//! counter-rotating vortices (rms 0.25 U/D in the corridor, peak |ω|
-//! 4.0 U/D). After the passage 37 % of the mass in the corridor has moved
-//! more than `D`, 7.1 % of the mass outside it (mean displacement 0.48 D,
-//! the vortices' induced flow reaching past the corridor's edge). What does
-//! not show: turbulence. At 48 cells across (5 per diameter) the
-//! semi-Lagrangian step's numerical viscosity keeps the flow laminar; the
-//! wake is one smooth vortex pair, not the notes' production-scale
-//! turbulence, and the render (`wake.png`) still reads mostly as a tunnel
-//! and a tail — the structure shows in the sections.
+//! counter-rotating vortices and nothing else (rms 0.27 U/D in the
+//! corridor, peak |ω| 3.4 U/D). After the passage 36 % of the mass in the
+//! corridor has moved more than `D`, 9.4 % of the mass outside it (mean
+//! displacement 0.51 D, the vortices' induced flow reaching past the
+//! corridor's edge). What does not show: turbulence. At 48 cells across
+//! (5 per diameter) the semi-Lagrangian step's numerical viscosity keeps
+//! the flow laminar; the wake is one smooth vortex pair, not the notes'
+//! production-scale turbulence, and the render (`wake.png`) reads as a
+//! channel and a tail, also with the near half cut away — the vortices
+//! show in the sections.
 //!
 //! Run: `smokelab experiment 08-3` (about 2.5 min on 2 cores: 96 × 48 × 48
 //! velocity cells, 256² renders; `--full` 192 × 96 × 96 and 512²; `--smoke`
 //! 48 × 24 × 24 and 64², about 25 s).
 //!
 //! Writes `results/08-3/`: `wake.png` (renders before, while the sphere is
-//! in the cloud and after it has passed, the sphere drawn in orange),
+//! in the cloud and after it has passed, the sphere drawn in orange; top
+//! row the whole cloud, bottom row its far half, cut at the vertical plane
+//! through the flight path, which shows the channel inside),
 //! `section.png` (after the passage, the cloud's density and `ω_x` on
 //! three planes across the path),
 //! `slice.png` (mid-plane slices through the path at the same times: the
@@ -98,7 +101,7 @@ use smokelab::boundary::{
 };
 use smokelab::density::{BackwardMap, DensityMode, DensityModel, DensityOptions, SelmaField};
 use smokelab::domain::Domain;
-use smokelab::field::algebra::{bilinear, compose, dot, jacobian};
+use smokelab::field::algebra::{bilinear, component, compose, dot, jacobian, zip, Binary};
 use smokelab::field::ops::{self, constant, constant_vector, identity, vector_sum};
 use smokelab::field::{Scalar, ScalarField, Vector};
 use smokelab::grid::ScalarGrid;
@@ -142,12 +145,19 @@ const SHOWN: [f32; 3] = [0.0, 5.0, 10.0];
 /// Vorticity of full colour in the slices, in `U/D`.
 const VORTICITY_SCALE: f32 = 1.0;
 /// The body's lift: the air it deflects downward per unit time, as a force
-/// per unit mass `LIFT · w(x)` along −y on the fluid around it, with `w`
-/// a Gaussian of widths [`CHORD`] along x and y centred on the sphere,
-/// cut off smoothly beyond half the span [`SPAN`] across z.
+/// per unit mass `LIFT · w(x)` along −y on the fluid just behind it, with
+/// `w` a Gaussian of widths [`CHORD`] along x and y centred at
+/// [`LIFT_CENTER`], cut off smoothly beyond half the span [`SPAN`] across z.
 const LIFT: f32 = 2.0;
 const CHORD: f32 = 0.5 * D;
 const SPAN: f32 = 2.0 * D;
+/// Where the downwash is applied: 1.5 chords behind the sphere's trailing
+/// point, on the fluid. Centred on the sphere, the middle of the Gaussian
+/// fell on the body's closed faces and was lost, so the column of air that
+/// passed the body carried less downwash than the air beside it: an
+/// opposite-signed pair of `ω_x` the body's width apart inside the trailing
+/// pair (the body's image in the downwash), which this placement removes.
+const LIFT_CENTER: Vec3 = Vec3::new(SPHERE.x + RADIUS + 1.5 * CHORD, SPHERE.y, SPHERE.z);
 /// Where the cross-sections of `section.png` cut the cloud after the
 /// passage: lab x relative to the cloud's centre, in `D`.
 const SECTIONS: [f32; 3] = [-2.0, 0.0, 2.0];
@@ -233,7 +243,14 @@ fn run(ctx: &Context) -> Result<()> {
         bail!("08-3: the cloud is {width:.2} body diameters across; the set-up needs at least 5");
     }
     let mut rows = vec![];
-    let (mut renders, mut density_slices, mut vorticity_slices) = (vec![], vec![], vec![]);
+    let (mut renders, mut cutaways) = (vec![], vec![]);
+    let (mut density_slices, mut vorticity_slices) = (vec![], vec![]);
+    // The far half of the cloud, `z < CLOUD.z` (the camera looks from +z):
+    // the near half cut away at the vertical plane through the flight path.
+    let far_half = ops::mask(ops::sum(
+        constant(CLOUD.z),
+        ops::scale(component(identity(), 2), -1.0),
+    ));
     for &t in &SHOWN {
         while sim.time() - t0 < t * D / U - 0.5 * DT {
             step_lifting(&mut sim, &lift);
@@ -259,16 +276,19 @@ fn run(ctx: &Context) -> Result<()> {
             ops::mask(ops::sphere(SPHERE - Vec3::X * U * tau, RADIUS)),
             20.0,
         );
-        renders.push(render_densities(
-            vec![
-                ("cloud".into(), density.clone(), Vec3::new(0.92, 0.93, 0.95)),
-                ("sphere".into(), body.clone(), Vec3::new(1.0, 0.55, 0.2)),
-            ],
-            view,
-            pixels,
-            0.5,
-            6.0,
-        )?);
+        let cut = zip(density.clone(), far_half.clone(), Binary::Mul);
+        for (shown, out) in [(density.clone(), &mut renders), (cut, &mut cutaways)] {
+            out.push(render_densities(
+                vec![
+                    ("cloud".into(), shown, Vec3::new(0.92, 0.93, 0.95)),
+                    ("sphere".into(), body.clone(), Vec3::new(1.0, 0.55, 0.2)),
+                ],
+                view,
+                pixels,
+                0.5,
+                6.0,
+            )?);
+        }
         density_slices.push(preview::field_slice(
             &[
                 preview::FieldLayer {
@@ -338,12 +358,18 @@ fn run(ctx: &Context) -> Result<()> {
         },
     )?;
     let headings: Vec<String> = SHOWN.iter().map(|t| format!("t = {t} D/U")).collect();
-    panels::save_row(
+    panels::save(
         &ctx.out.join("wake.png"),
-        &renders,
+        &[renders, cutaways],
         6,
-        "render, still-air frame: sphere (orange) flies right to left",
-        &headings,
+        &panels::Labels {
+            title: "render, still-air frame: sphere (orange) flies right to left",
+            rows: &[
+                "whole cloud".into(),
+                "near half cut away at the path".into(),
+            ],
+            columns: &headings,
+        },
     )?;
     panels::save(
         &ctx.out.join("slice.png"),
@@ -530,8 +556,8 @@ impl ScalarField for CrossSection {
 type LiftFaces = Vec<(usize, f32)>;
 
 /// The faces of the y-velocity the body's lift acts on, with their weights
-/// `w(x)`: a Gaussian of width [`CHORD`] in x and y about the sphere's
-/// centre, times a smooth cut-off `½(1 − tanh((|z − z_c| − SPAN/2)/CHORD·2))`
+/// `w(x)`: a Gaussian of width [`CHORD`] in x and y about
+/// [`LIFT_CENTER`], times a smooth cut-off `½(1 − tanh((|z − z_c| − SPAN/2)/CHORD·2))`
 /// across the span, over the faces where it exceeds 10⁻³.
 fn lift_weights(sim: &Simulation) -> LiftFaces {
     let dims = sim.velocity.face_dims(1);
@@ -540,7 +566,7 @@ fn lift_weights(sim: &Simulation) -> LiftFaces {
     for k in 0..dims[2] {
         for j in 0..dims[1] {
             for i in 0..dims[0] {
-                let p = sim.velocity.face_position(1, i, j, k) - SPHERE;
+                let p = sim.velocity.face_position(1, i, j, k) - LIFT_CENTER;
                 let g = (-(p.x * p.x + p.y * p.y) / (CHORD * CHORD)).exp();
                 let cut = 0.5 * (1.0 - ((p.z.abs() - 0.5 * SPAN) * 2.0 / CHORD).tanh());
                 let w = g * cut;
