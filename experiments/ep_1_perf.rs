@@ -364,10 +364,9 @@ fn measure(
     for _ in 0..steps {
         t[0].push(ms(|| two.install(|| double.step())));
         let s = double.times;
-        for (v, x) in stages
-            .iter_mut()
-            .zip([s.advect, s.inject, s.density, s.force, s.project, s.boundary])
-        {
+        for (v, x) in stages.iter_mut().zip([
+            s.advect, s.inject, s.density, s.force, s.project, s.boundary,
+        ]) {
             v.push(x * 1e3);
         }
         t[1].push(ms(|| one.install(|| single.step())));
