@@ -367,6 +367,9 @@ pub struct Gridless {
     field: GridlessField,
     samples: CellSamples,
     centres: ScalarGrid,
+    /// Whether the history moved on (or was restored) since `centres` was
+    /// last evaluated.
+    stale: bool,
 }
 
 impl Gridless {
@@ -377,6 +380,7 @@ impl Gridless {
             field: GridlessField::new(domain, initial, source),
             samples: CellSamples::default_for(DensityMode::Gridless),
             centres: ScalarGrid::zeros(domain),
+            stale: true,
         };
         gas.evaluate_centres();
         gas
@@ -401,6 +405,7 @@ impl Gridless {
             .snapshot
             .expect("gridless density needs the step's velocity snapshot");
         self.field.push(Arc::clone(u), input.dt, input.backtrace);
+        self.stale = true;
     }
 
     /// Zero density inside `walls` ([`GridlessField::set_walls`]).
@@ -428,10 +433,22 @@ impl Gridless {
         let (fields, mut centres): (Vec<_>, Vec<_>) =
             gases.iter_mut().map(|g| (&g.field, &mut g.centres)).unzip();
         write_grouped(&fields, &samples, &mut centres);
+        for g in gases.iter_mut() {
+            g.stale = false;
+        }
     }
 
-    /// The density on the cells as of the last [`Self::evaluate_centres`].
+    /// The density on the cells, as evaluated by [`Self::evaluate_centres`].
+    ///
+    /// # Panics
+    /// If the gas stepped or was restored since (call
+    /// `Simulation::evaluate_densities` first): a stale cache is never read.
     pub fn density(&self) -> &ScalarGrid {
+        assert!(
+            !self.stale,
+            "gridless density read before it was evaluated after a step \
+             (call Simulation::evaluate_densities first)"
+        );
         &self.centres
     }
 
@@ -470,6 +487,7 @@ impl Gridless {
             self.field.push(velocity, dt, backtrace);
         }
         self.centres = centres;
+        self.stale = true;
     }
 }
 

@@ -172,11 +172,13 @@ fn measure_sampled(
     spectra: &mut Spectra,
 ) -> DensityMeasures {
     let cut = spectra.coarse.dims.map(|n| n / 2);
-    let subgrid_fraction = match model.map(|m| (m.mode(), m.density())) {
-        Some((DensityMode::Gridded, grid)) if grid.wrap() == Wrap::Periodic => {
-            spectra.grid.weighted_share(grid.as_slice(), &spectra.gains)
-        }
-        _ => spectra.fine.share_above(&[fine.as_slice()], cut),
+    let own_grid = model
+        .filter(|m| m.mode() == DensityMode::Gridded)
+        .map(DensityModel::density)
+        .filter(|grid| grid.wrap() == Wrap::Periodic);
+    let subgrid_fraction = match own_grid {
+        Some(grid) => spectra.grid.weighted_share(grid.as_slice(), &spectra.gains),
+        None => spectra.fine.share_above(&[fine.as_slice()], cut),
     };
     DensityMeasures {
         mass: fine.total(),

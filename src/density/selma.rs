@@ -580,6 +580,9 @@ pub struct Selma {
     /// Points per cell of the cache ([`CellSamples`]).
     samples: CellSamples,
     centres: ScalarGrid,
+    /// Whether the map or reference moved on (or was restored) since
+    /// `centres` was last evaluated.
+    stale: bool,
 }
 
 impl Selma {
@@ -619,6 +622,7 @@ impl Selma {
             restarts: 0,
             samples: CellSamples::default_for(DensityMode::Selma),
             centres: ScalarGrid::zeros(domain),
+            stale: true,
         };
         gas.evaluate_centres();
         gas
@@ -731,10 +735,21 @@ impl Selma {
                     field.clear_inside(centres, out);
                 },
             );
+        self.stale = false;
     }
 
-    /// The density at the velocity cell centres as of the last [`Self::evaluate_centres`].
+    /// The density at the velocity cell centres, as evaluated by
+    /// [`Self::evaluate_centres`].
+    ///
+    /// # Panics
+    /// If the gas stepped or was restored since (call
+    /// `Simulation::evaluate_densities` first): a stale cache is never read.
     pub fn density(&self) -> &ScalarGrid {
+        assert!(
+            !self.stale,
+            "SELMA density read before it was evaluated after a step \
+             (call Simulation::evaluate_densities first)"
+        );
         &self.centres
     }
 
@@ -804,6 +819,7 @@ impl Selma {
         }
         self.restarts = state.restarts;
         self.centres = state.centres;
+        self.stale = true;
     }
 }
 
@@ -828,6 +844,9 @@ pub fn step_group(gases: &mut [&mut Selma], input: &StepInput<'_>) {
 /// # Panics
 /// If the first gas shares a map (no earlier gas has one).
 pub fn advect_group(gases: &mut [&mut Selma], input: &StepInput<'_>) {
+    for g in gases.iter_mut() {
+        g.stale = true;
+    }
     let mut owner = None;
     for n in 0..gases.len() {
         let Some(map) = &gases[n].map else { continue };
@@ -862,6 +881,9 @@ pub fn advect_group(gases: &mut [&mut Selma], input: &StepInput<'_>) {
 /// # Panics
 /// If the first gas shares a map.
 pub fn inject_group(gases: &mut [&mut Selma], dt: f32) {
+    for g in gases.iter_mut() {
+        g.stale = true;
+    }
     for_each_map(gases, |gases, map| {
         inject(gases, &map.lattice, dt);
         if map.remap > 0.0 && map.deformation() > map.remap {
