@@ -226,9 +226,6 @@ pub struct Simulation {
     obstacle_projection: Option<ObstacleProjection>,
     /// A velocity given for all time ([`Self::with_prescribed_velocity`]).
     prescribed: Option<Arc<dyn PrescribedVelocity>>,
-    /// Whether every gas's [`Gas::density`] is that of its current state
-    /// ([`Self::evaluate_densities`]).
-    densities_evaluated: bool,
 }
 
 impl Simulation {
@@ -250,7 +247,6 @@ impl Simulation {
             ),
             obstacle_projection: None,
             prescribed: None,
-            densities_evaluated: true,
         }
     }
 
@@ -447,7 +443,6 @@ impl Simulation {
             backtrace: p.backtrace,
         };
         DensityModel::advect_all(self.gases.iter_mut().map(|g| &mut g.model), &input);
-        self.densities_evaluated = false;
         if self.prescribed.is_none() {
             std::mem::swap(&mut self.velocity, &mut self.velocity_scratch);
         }
@@ -498,13 +493,10 @@ impl Simulation {
     /// Evaluate gridless and SELMA densities at the cell centres, the input
     /// of the buoyancy force and what [`Gas::density`] reads (gridded
     /// densities already live there); the gridless gases walk back once for
-    /// all ([`DensityModel::evaluate_all`]). Nothing to do when they were
-    /// evaluated since the last step.
+    /// all ([`DensityModel::evaluate_all`]). Nothing to do for a gas
+    /// evaluated since its last step.
     pub fn evaluate_densities(&mut self) {
-        if !self.densities_evaluated {
-            DensityModel::evaluate_all(self.gases.iter_mut().map(|g| &mut g.model));
-            self.densities_evaluated = true;
-        }
+        DensityModel::evaluate_all(self.gases.iter_mut().map(|g| &mut g.model));
     }
 
     /// Bytes held by the density representations of all gases, each shared
@@ -610,7 +602,6 @@ impl Simulation {
         }
         self.velocity = state.velocity;
         self.step_index = state.step_index;
-        self.densities_evaluated = false;
         Ok(())
     }
 

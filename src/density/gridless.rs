@@ -438,6 +438,12 @@ impl Gridless {
         }
     }
 
+    /// Whether the history moved on (or was restored) since the cache was
+    /// last evaluated.
+    pub fn stale(&self) -> bool {
+        self.stale
+    }
+
     /// The density on the cells, as evaluated by [`Self::evaluate_centres`].
     ///
     /// # Panics

@@ -447,15 +447,17 @@ impl DensityModel {
         }
     }
 
-    /// [`Self::evaluate_centres`] for every gas; the gridless gases
-    /// together ([`Gridless::evaluate_group`]), with one walk for those that
-    /// share their velocity history.
+    /// [`Self::evaluate_centres`] for every gas whose cache is stale (it
+    /// stepped or was restored since its last evaluation); the gridless
+    /// gases together ([`Gridless::evaluate_group`]), with one walk for
+    /// those that share their velocity history.
     pub fn evaluate_all<'a>(gases: impl IntoIterator<Item = &'a mut DensityModel>) {
         let mut gridless = Vec::new();
         for model in gases {
             match model {
-                DensityModel::Gridless(g) => gridless.push(g),
-                other => other.evaluate_centres(),
+                DensityModel::Gridless(g) if g.stale() => gridless.push(g),
+                DensityModel::Selma(s) if s.stale() => s.evaluate_centres(),
+                _ => {}
             }
         }
         Gridless::evaluate_group(&mut gridless);

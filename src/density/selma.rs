@@ -738,6 +738,12 @@ impl Selma {
         self.stale = false;
     }
 
+    /// Whether the map or reference moved on (or was restored) since the
+    /// cache was last evaluated.
+    pub fn stale(&self) -> bool {
+        self.stale
+    }
+
     /// The density at the velocity cell centres, as evaluated by
     /// [`Self::evaluate_centres`].
     ///
