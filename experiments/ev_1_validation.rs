@@ -48,10 +48,23 @@
 //! representation × scheme × resolution), `orders.csv` (the observed order
 //! of each line), `table.md` (both tables for `paper/`), `published.csv`
 //! (the published values beside ours, each with its source, "not found"
-//! where no value could be checked), `error_deformation.png/.svg`,
+//! where no value could be checked, and the status of the search),
+//! `error_deformation.png/.svg`,
 //! `error_zalesak.png/.svg`, `error_taylor_green.png/.svg` (L1 or rms
 //! error against resolution, log-log, one line per representation and
-//! scheme, the observed order in the legend), `manifest.json`.
+//! scheme, the observed order in the legend), `manifest.json` (with the
+//! list of what was searched for published values, [`SEARCHED`]).
+//!
+//! Published values: none is set beside ours yet. A directly comparable
+//! number needs the same test, resolution and norm, and Enright et al.
+//! 2002 measure a level set's volume, not a density's L1 return error —
+//! at best a caveated comparison with our volume of `ρ > ½` kept. Even
+//! that could not be made: the stored copies of Enright et al. 2002 (journal version and
+//! preprint), of Enright's 2002 thesis, of Selle et al. 2008 and of Dupont
+//! & Liu's BFECC paper show their opening pages only, LeVeque 1996 was not
+//! found, and the codes found that set up the 3D deformation (in Julia and
+//! C++) carry no reference values. [`SEARCHED`] lists the queries; each
+//! row of `published.csv` says what was found for it.
 
 use std::time::Instant;
 
@@ -382,6 +395,7 @@ fn run(ctx: &Context) -> Result<()> {
         "size": format!("{:?}", ctx.size),
         "resolutions": levels,
         "gridless_max_res": GRIDLESS_MAX_RES,
+        "published_searched": SEARCHED,
     });
     io::write_json(
         &ctx.out.join("manifest.json"),
@@ -486,9 +500,27 @@ struct Published {
     ours: (&'static str, &'static str),
 }
 
-/// The published values searched for. Only the papers' abstracts were
-/// readable (Enright et al. 2002 and Selle et al. 2008 through stored
-/// copies of their first pages); their tables were not, so no number is
+/// Where published values were searched for (the project's stored copies
+/// of public web pages, documentation and code), and with what.
+pub const SEARCHED: &[&str] = &[
+    "pages: Enright Fedkiw Ferziger Mitchell 2002 deformation test volume loss table particle level set",
+    "pages: Enright particle level set three-dimensional deformation flow volume loss percent 100^3 grid",
+    "pages: Enright dissertation Zalesak sphere 3D 100 x 100 x 100 grid one revolution volume lost",
+    "pages: 3D deformation test sphere radius 0.15 center (0.35,0.35,0.35) period T=3 volume loss level set 100^3",
+    "pages: Zalesak slotted sphere 3D volume loss table level set 100^3",
+    "pages: Selle Fedkiw Kim Liu Rossignac unconditionally stable MacCormack method results error table",
+    "pages: semi-Lagrangian MacCormack BFECC Zalesak disk rotation error comparison table",
+    "pages: LeVeque 1996 high-resolution conservative algorithms advection incompressible flow deformation error table",
+    "pages: semi-Lagrangian passive scalar LeVeque deformation return error L1 64^3 128^3 MacCormack BFECC",
+    "pages: PFM-LS 3D deformation test volume change table LS PLS 100^3",
+    "docs: 3D deformation test LeVeque sphere 0.35 volume loss percent 100^3 particle level set",
+    "code: LeVeque deformation test sphere time reversed T=3 error L1 expected value validation",
+    "code: 3D deformation test Enright volume loss particle level set reproduced results table",
+    "code (exact strings): \"Enright et al. 2002\", \"volume loss\"",
+];
+
+/// The published values searched for (see [`SEARCHED`]). Only the papers'
+/// opening pages were readable; their tables were not, so no number is
 /// given where it could not be checked.
 const PUBLISHED: &[Published] = &[
     Published {
@@ -498,7 +530,7 @@ const PUBLISHED: &[Published] = &[
         res: "100³",
         value: "not found",
         source: "Enright, Fedkiw, Ferziger & Mitchell 2002, J. Comput. Phys. 183, §5 (3D deformation)",
-        status: "table not readable in the searchable copies",
+        status: "stored copies (journal version, 2001 preprint, Enright's 2002 thesis) show only the opening pages; §5's tables not reached",
         ours: ("gridded", "quick"),
     },
     Published {
@@ -508,7 +540,7 @@ const PUBLISHED: &[Published] = &[
         res: "100³",
         value: "not found",
         source: "Enright, Fedkiw, Ferziger & Mitchell 2002, J. Comput. Phys. 183, §5 (3D deformation)",
-        status: "table not readable in the searchable copies",
+        status: "stored copies (journal version, 2001 preprint, Enright's 2002 thesis) show only the opening pages; §5's tables not reached",
         ours: ("gridless", "-"),
     },
     Published {
@@ -518,7 +550,7 @@ const PUBLISHED: &[Published] = &[
         res: "100³",
         value: "not found",
         source: "Enright, Fedkiw, Ferziger & Mitchell 2002, J. Comput. Phys. 183, §5.1 (3D Zalesak sphere)",
-        status: "table not readable in the searchable copies",
+        status: "stored copies (journal version, 2001 preprint, Enright's 2002 thesis) show only the opening pages; §5's tables not reached",
         ours: ("gridless", "-"),
     },
     Published {
@@ -528,17 +560,17 @@ const PUBLISHED: &[Published] = &[
         res: "-",
         value: "not found",
         source: "Selle, Fedkiw, Kim, Liu & Rossignac 2008, J. Sci. Comput. 35",
-        status: "abstract read: second order in smooth flow, no 3D deformation number found",
+        status: "stored copies show the abstract and introduction (second order in smooth flow); no 3D deformation number found",
         ours: ("gridded", "maccormack"),
     },
     Published {
         case: "deformation",
         quantity: "L1 return error",
-        method: "high-resolution wave propagation (2D)",
+        method: "high-resolution wave propagation",
         res: "-",
         value: "not found",
         source: "LeVeque 1996, SIAM J. Numer. Anal. 33",
-        status: "not found in the searchable corpora",
+        status: "the paper is not in the stored corpora",
         ours: ("gridded", "quick"),
     },
 ];

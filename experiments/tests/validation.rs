@@ -112,8 +112,17 @@ fn v1_smoke_table_orders_and_published_values() {
             "{rec:?}"
         );
         assert!(rec["ours"].parse::<f64>().unwrap().is_finite(), "{rec:?}");
+        assert!(!rec["status"].is_empty(), "{rec:?}");
     }
     assert!(n >= 3, "{n} published entries");
+    // The manifest says where the published values were searched for.
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    let searched = manifest["config"]["published_searched"].as_array();
+    assert!(
+        searched.is_some_and(|s| !s.is_empty()),
+        "manifest has no published_searched: {manifest}"
+    );
     for f in [
         "table.md",
         "manifest.json",
