@@ -15,19 +15,16 @@ use crate::output_dir;
 use crate::registry;
 use crate::run::{self, Checkpointing, RunOptions, SaveFrames};
 use serde::Serialize;
-use smokelab::advection::{Backtrace, Limiter, Scheme};
 use smokelab::boundary::{BoundaryRule, ObstacleMethod};
 use smokelab::density::DensityMode;
 use smokelab::error::InputError;
-use smokelab::grid::BoxKind;
 use smokelab::io;
-use smokelab::pressure::PressurePrecision;
 use smokelab::render::camera::parse_image_size;
 use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
 use smokelab::scenario::slab_box::SlabBoxConfig;
 use smokelab::scenario::taylor_green::TaylorGreenConfig;
-use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig};
+use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig, SolverFlags};
 use smokelab::simulation::Simulation;
 
 /// `--version`: the package version and the git commit the library was
@@ -140,104 +137,6 @@ pub struct RunArgs {
     pub march_step: Option<f32>,
 }
 
-/// Flags for the keys of [`SolverConfig`]: each given flag overrides its key
-/// (same name, `-` for `_`); see `SolverConfig` for what each means.
-#[derive(Debug, Default, Args, Serialize)]
-pub struct SolverFlags {
-    /// Cells per axis.
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub res: Option<usize>,
-    /// Edge length of the cubic box.
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub size: Option<f32>,
-    /// The box's faces: periodic, or closed (walls with no normal flow; SL, MacCormack or BFECC with gridded density only).
-    #[arg(long = "box", value_enum)]
-    #[serde(rename = "box", skip_serializing_if = "Option::is_none")]
-    pub box_kind: Option<BoxKind>,
-    /// Number of time steps (frames).
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub frames: Option<usize>,
-    /// Time step Δt.
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub dt: Option<f32>,
-    /// Kinematic viscosity ν.
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub nu: Option<f32>,
-    /// Magnitude of gravity.
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub gravity: Option<f32>,
-    /// Semi-Lagrangian backtrace.
-    #[arg(long, value_enum)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub backtrace: Option<Backtrace>,
-    /// Advection scheme for velocity and densities.
-    #[arg(long, value_enum)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub advection: Option<Scheme>,
-    /// QUICK: refuse steps beyond the CFL bound instead of splitting them (key `substeps = false`).
-    #[arg(long)]
-    #[serde(
-        rename = "substeps",
-        skip_serializing_if = "is_false",
-        serialize_with = "negated"
-    )]
-    pub no_substeps: bool,
-    /// QUICK density limiter.
-    #[arg(long, value_enum)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub limiter: Option<Limiter>,
-    /// How the densities are held: gridded (eq 6.4), gridless (eq 7.4) or selma (eq 8.8).
-    #[arg(long, value_enum)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub density: Option<DensityMode>,
-    /// SELMA map grid cells along the longest axis (default: --res; finer is SELMA^fine).
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub map_res: Option<usize>,
-    /// SELMA: re-anchor the map when its lattice has deformed by more than this many map cells (0: never).
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub selma_remap: Option<f32>,
-    /// Gridless and SELMA: points per cell for the force and the saved volumes — 8, the 2×2×2 cell average (gridless default; adaptive: eight walks only in cells where the gas varies), or 1, the cell centre (SELMA default, whose reference is already cell averages; for gridless it aliases sub-cell filaments into specks).
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub cell_samples: Option<usize>,
-    /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub sample_res: Option<usize>,
-    /// Write volumes every K frames (0: metrics only).
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub save_every: Option<usize>,
-    /// Fine metrics (2× densities, spectra, interpolant divergence) every K steps and at the last (default 100: each costs about 1.5 steps at 128³, so about 1.5 % of a run; the per-step measures add about 3 %).
-    #[arg(long, allow_negative_numbers = true)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub metrics_every: Option<usize>,
-    /// Pressure solve's transforms: f32 (default; `max|D u| Δx / max|u|` ≤ 1e-5 up to 256³, growing about as ε·N; P-1's pressure_precision.csv) or f64 (round-off of the faces; above 256³, and the convergence suite's).
-    #[arg(long, value_enum)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub pressure_precision: Option<PressurePrecision>,
-    /// Run even if the memory estimate exceeds the available memory.
-    #[arg(long)]
-    #[serde(skip_serializing_if = "is_false")]
-    pub force: bool,
-    /// Random seed.
-    #[arg(long)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub seed: Option<u64>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub threads: Option<usize>,
-}
-
 /// Flags for scenario keys that have their own (others: `--set KEY=VALUE`).
 /// A flag the chosen scenario does not have is refused, naming the scenario
 /// that has it.
@@ -346,14 +245,6 @@ impl ExactLog {
     }
 }
 
-fn is_false(b: &bool) -> bool {
-    !*b
-}
-
-fn negated<S: serde::Serializer>(b: &bool, s: S) -> Result<S::Ok, S::Error> {
-    s.serialize_bool(!*b)
-}
-
 impl RunArgs {
     /// The configuration layers this command line gives, in order: the
     /// `--config` file, the flags, the `--set` pairs.
@@ -365,7 +256,7 @@ impl RunArgs {
                 config::read_toml(path)?,
             ));
         }
-        let mut flags = toml::Table::try_from(&self.solver).expect("flags serialize to a table");
+        let mut flags = self.solver.overrides();
         flags.extend(toml::Table::try_from(&self.scene).expect("flags serialize to a table"));
         layers.push(("flags".into(), flags));
         let mut set = toml::Table::new();

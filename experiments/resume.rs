@@ -24,7 +24,7 @@ use smokelab::scenario::{config, Scenario, ScenarioKind};
 /// remove the frames written after the checkpoint, cut `metrics.csv` after
 /// its row and continue the run from it.
 pub(crate) fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
-    let mut given = toml::Table::try_from(&args.solver).expect("flags serialize to a table");
+    let mut given = args.solver.overrides();
     given.extend(toml::Table::try_from(&args.scene).expect("flags serialize to a table"));
     given.remove("frames");
     given.remove("threads");

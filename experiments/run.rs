@@ -548,6 +548,87 @@ pub fn run_with<C: Serialize>(
     drive(sim, opts, config, seed, None, at_saved)
 }
 
+/// The progress bar of a run's steps, at step `first`: its cost grows with
+/// the step if a gas is gridless (a gridless step walks back through every
+/// velocity grid so far).
+fn progress_bar(sim: &Simulation, opts: &RunOptions, first: usize) -> crate::progress::Stage {
+    let growth = sim
+        .gases
+        .iter()
+        .map(|g| crate::progress::growth_of(g.model.mode()))
+        .max_by_key(|g| *g == crate::progress::Growth::Linear)
+        .unwrap_or(crate::progress::Growth::Constant);
+    let name = crate::progress::stage_name(&opts.out);
+    let mut bar = crate::progress::stage(&name, opts.frames as u64, growth, opts.progress);
+    bar.set_position(first as u64);
+    bar
+}
+
+/// `run.pvd` with the frames saved before step one of this process (those
+/// of a resumed run before its checkpoint), if ParaView files are asked for.
+fn paraview_collection(
+    opts: &RunOptions,
+    dt: f32,
+    saved_frames: &[usize],
+) -> Result<Option<PvdCollection>> {
+    if !opts.paraview {
+        return Ok(None);
+    }
+    let mut pvd = PvdCollection::new(opts.out.join("run.pvd"));
+    for &f in saved_frames {
+        // As `write_frame_formats` lists it: the f32 time's shortest decimal.
+        let time: f64 = (f as f32 * dt).to_string().parse()?;
+        let n = opts.save.sequence(f);
+        pvd.push(time, &crate::export::sequence_file(n, "vti"))?;
+    }
+    Ok(Some(pvd))
+}
+
+impl RunSummary {
+    /// The summary of a run of `sim` before its first step: its grid and
+    /// gases, and the frames a run resumed at `resumed_from` saved before.
+    fn start(sim: &Simulation, opts: &RunOptions, resumed_from: Option<usize>) -> Self {
+        let domain = *sim.domain();
+        let mut summary = RunSummary {
+            grid: GridRecord {
+                origin: domain.origin.to_array(),
+                cell: domain.cell,
+                dims: domain.dims,
+                layout: "MAC: u, v, w on the x-, y-, z-faces; densities at cell centres",
+                boundary: sim.velocity.kind().name(),
+            },
+            gases: sim.gases.iter().map(|g| g.name.clone()).collect(),
+            wall_seconds: 0.0,
+            saved_frames: vec![],
+            previews: vec![],
+            stage_seconds: Default::default(),
+            final_mirror_error: None,
+            density_mode: sim
+                .gases
+                .first()
+                .map_or_else(Default::default, |g| g.model.mode()),
+            final_density_bytes: 0,
+            source_rates: sim.gases.iter().map(|g| g.injected_per_step(1.0)).collect(),
+            final_measures: vec![],
+            renders: vec![],
+            resumed_from,
+        };
+        // The frames a resumed run wrote before its checkpoint.
+        let earlier =
+            (1..=resumed_from.unwrap_or(0)).filter(|&f| opts.save.contains(f, opts.frames));
+        for f in earlier {
+            summary.saved_frames.push(f);
+            summary.previews.push(preview_path(&opts.out, f));
+        }
+        summary
+    }
+}
+
+/// Run `sim` from its current step (`checkpoints`' `resumed_from`, else 0)
+/// to `opts.frames`: the manifest marked running, then per step the measures,
+/// saved frames (`at_saved` after each), renders, metrics row and
+/// checkpoint; at the end the manifest of the complete run, or of the failed
+/// one naming its error.
 fn drive<C: Serialize>(
     sim: &mut Simulation,
     opts: &RunOptions,
@@ -564,48 +645,8 @@ fn drive<C: Serialize>(
         Some(_) => Log::append(metrics_path)?,
         None => Log::create(metrics_path, &metric_columns(sim))?,
     };
-    // A gridless step walks back through every velocity grid so far: its
-    // cost grows with the step.
-    let growth = sim
-        .gases
-        .iter()
-        .map(|g| crate::progress::growth_of(g.model.mode()))
-        .max_by_key(|g| *g == crate::progress::Growth::Linear)
-        .unwrap_or(crate::progress::Growth::Constant);
-    let name = crate::progress::stage_name(&opts.out);
-    let mut bar = crate::progress::stage(&name, opts.frames as u64, growth, opts.progress);
-    bar.set_position(first as u64);
-    let domain = *sim.domain();
-    let mut summary = RunSummary {
-        grid: GridRecord {
-            origin: domain.origin.to_array(),
-            cell: domain.cell,
-            dims: domain.dims,
-            layout: "MAC: u, v, w on the x-, y-, z-faces; densities at cell centres",
-            boundary: sim.velocity.kind().name(),
-        },
-        gases: sim.gases.iter().map(|g| g.name.clone()).collect(),
-        wall_seconds: 0.0,
-        saved_frames: vec![],
-        previews: vec![],
-        stage_seconds: Default::default(),
-        final_mirror_error: None,
-        density_mode: sim
-            .gases
-            .first()
-            .map_or_else(Default::default, |g| g.model.mode()),
-        final_density_bytes: 0,
-        source_rates: sim.gases.iter().map(|g| g.injected_per_step(1.0)).collect(),
-        final_measures: vec![],
-        renders: vec![],
-        resumed_from,
-    };
-    // The frames a resumed run wrote before its checkpoint.
-    let earlier = (1..=first).filter(|&f| opts.save.contains(f, opts.frames));
-    for f in earlier {
-        summary.saved_frames.push(f);
-        summary.previews.push(preview_path(&opts.out, f));
-    }
+    let mut bar = progress_bar(sim, opts, first);
+    let mut summary = RunSummary::start(sim, opts, resumed_from);
     // At the start: what runs, where its grid sits and that it has not finished.
     io::write_json(
         &opts.out.join("manifest.json"),
@@ -616,18 +657,8 @@ fn drive<C: Serialize>(
     }
     // The steps; an error ends the run with a `failed` manifest naming it.
     let steps = (|| -> Result<()> {
-        let mut pvd = opts
-            .paraview
-            .then(|| PvdCollection::new(opts.out.join("run.pvd")));
-        if let Some(pvd) = pvd.as_mut() {
-            for &f in &summary.saved_frames {
-                // As `write_frame_formats` lists it: the f32 time's shortest decimal.
-                let time: f64 = (f as f32 * sim.params.dt).to_string().parse()?;
-                let n = opts.save.sequence(f);
-                pvd.push(time, &crate::export::sequence_file(n, "vti"))?;
-            }
-        }
-        let mut probes = FineProbes::new(domain);
+        let mut pvd = paraview_collection(opts, sim.params.dt, &summary.saved_frames)?;
+        let mut probes = FineProbes::new(*sim.domain());
         let every = opts.metrics_every.max(1);
         let mut warned_cfl = false;
         for frame in first + 1..=opts.frames {

@@ -120,6 +120,11 @@ impl Gas {
     /// The density at the velocity grid's cell centres, as of the last
     /// [`Simulation::evaluate_densities`] (which a forced step calls; after
     /// a prescribed step, call it before reading a gridless or SELMA gas).
+    ///
+    /// # Panics
+    /// If the gas is gridless or SELMA and was stepped or restored since its
+    /// last evaluation (a stale read): call
+    /// [`Simulation::evaluate_densities`] first.
     pub fn density(&self) -> &ScalarGrid {
         self.model.density()
     }

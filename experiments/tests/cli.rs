@@ -124,6 +124,76 @@ fn print_config_round_trips() {
     }
 }
 
+/// The configuration `smokelab run hot-cold --config c.toml ARGS
+/// --print-config` resolves to, in `sb`.
+fn printed_config(sb: &Sandbox, args: &[&str]) -> toml::Table {
+    let mut full = vec!["run", "hot-cold", "--config", "c.toml"];
+    full.extend_from_slice(args);
+    full.push("--print-config");
+    let o = sb.ok(&full);
+    toml::from_str(&String::from_utf8(o.stdout).unwrap()).unwrap()
+}
+
+/// Each solver flag overrides its key over a `--config` file and changes
+/// nothing else, one flag per kind of value (usize, u64, f32, enum, a
+/// renamed key, an optional key, both switches); a switch not given leaves
+/// the file's value.
+#[test]
+fn solver_flags_override_their_keys_and_only_them() {
+    use toml::Value::{Boolean, Float, Integer, String as Text};
+    let sb = Sandbox::new();
+    let file = "res = 30\ndt = 0.1\nadvection = \"maccormack\"\nseed = 3\n";
+    std::fs::write(sb.join("c.toml"), file).unwrap();
+    let base = printed_config(&sb, &[]);
+    assert_eq!(base["res"], Integer(30), "the file's keys are read");
+    let cases: [(&[&str], &str, toml::Value); 8] = [
+        (&["--res", "24"], "res", Integer(24)),
+        (&["--seed", "7"], "seed", Integer(7)),
+        (&["--dt", "0.025"], "dt", Float(0.025)),
+        (&["--advection", "bfecc"], "advection", Text("bfecc".into())),
+        (&["--box", "closed"], "box", Text("closed".into())),
+        (&["--cell-samples", "8"], "cell_samples", Integer(8)),
+        (&["--no-substeps"], "substeps", Boolean(false)),
+        (&["--force"], "force", Boolean(true)),
+    ];
+    for (args, key, value) in cases {
+        let mut expected = base.clone();
+        assert_ne!(expected.insert(key.into(), value.clone()), Some(value));
+        assert_eq!(printed_config(&sb, args), expected, "{args:?}");
+    }
+    std::fs::write(sb.join("c.toml"), "substeps = false\nforce = true\n").unwrap();
+    let switched = printed_config(&sb, &[]);
+    assert_eq!(
+        (&switched["substeps"], &switched["force"]),
+        (&Boolean(false), &Boolean(true))
+    );
+}
+
+/// A solver flag's bad value exits 2 naming the value (and, where the flag
+/// knows them, the valid ones), one flag per kind of value.
+#[test]
+fn bad_solver_flag_values_exit_2_naming_the_value() {
+    let cases: [(&[&str], &[&str]); 7] = [
+        (&["--res", "many"], &["'many'", "--res"]),
+        (&["--seed", "-1"], &["'-1'", "--seed"]),
+        (&["--size", "wide"], &["'wide'", "--size"]),
+        (&["--advection", "upwind"], &["'upwind'", "sl, quick"]),
+        (&["--box", "open"], &["'open'", "periodic, closed"]),
+        (
+            &["--cell-samples", "3"],
+            &["'3'", "1 (the cell centre) or 8"],
+        ),
+        (&["--no-substeps=yes"], &["'yes'", "--no-substeps"]),
+    ];
+    let sb = Sandbox::new();
+    for (flag, needles) in cases {
+        let mut args = vec!["run", "hot-cold", "--out", "out"];
+        args.extend_from_slice(flag);
+        sb.refused(&args, needles);
+        assert!(!sb.join("out").exists(), "{args:?} created its folder");
+    }
+}
+
 #[test]
 fn experiment_list_names_06_1() {
     let sb = Sandbox::new();

@@ -28,8 +28,8 @@ fn cli_reference() -> String {
         .title("Command-line reference".into())
         .show_footer(false);
     let body = clap_markdown::help_markdown_custom::<Cli>(&options);
-    let note = "<!-- Generated from the clap definitions in experiments/cli.rs by \
-                experiments/tests/docs.rs; do not edit. -->\n\n";
+    let note = "<!-- Generated from the clap definitions in experiments/cli.rs and \
+                src/scenario/config.rs by experiments/tests/docs.rs; do not edit. -->\n\n";
     format!("{note}{body}")
 }
 

@@ -3,10 +3,13 @@
 //!
 //! [`SolverConfig`] holds what every scenario shares — resolution, box, time
 //! step, viscosity, gravity, advection, density mode, output cadence, seed,
-//! threads. A scenario's configuration flattens it (`#[serde(flatten)]`), so
-//! its TOML keys and its command-line flags are the same flat names in every
-//! scenario. [`resolve`] layers defaults ← file ← overrides key by key and
-//! refuses any key the scenario does not have, naming the scenario that has it.
+//! threads. Each key is defined once (`solver_keys!`), which gives both the
+//! configuration field and its command-line flag ([`SolverFlags`], with the
+//! `clap` feature), with one doc. A scenario's configuration flattens it
+//! (`#[serde(flatten)]`), so its TOML keys and its command-line flags are the
+//! same flat names in every scenario. [`resolve`] layers defaults ← file ←
+//! overrides key by key and refuses any key the scenario does not have,
+//! naming the scenario that has it.
 
 use std::path::Path;
 
@@ -23,101 +26,216 @@ use crate::grid::BoxKind;
 use crate::pressure::PressurePrecision;
 use crate::simulation::{Gas, Simulation, StepParams};
 
-/// Parameters of the solver, shared by every scenario (flattened into each
-/// scenario's configuration: the TOML keys are these field names).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SolverConfig {
+/// One definition of every solver key: its doc, name, type and default, and
+/// its command-line flag. Expands to [`SolverConfig`] (serde: the TOML
+/// keys), its `Default`, and, with the `clap` feature, [`SolverFlags`] with
+/// the same doc per flag and [`SolverFlags::overrides`].
+///
+/// A key reads `name: Type = default;` then `flag name: FlagType [clap
+/// attributes] => to_key;`, where `to_key` maps the parsed flag to the key's
+/// override ([`given`] for an `Option` flag, [`switch`] for a bool flag that
+/// sets the key to a fixed value).
+macro_rules! solver_keys {
+    ($(
+        $(#[doc = $doc:literal])+
+        $(#[serde(rename = $key:literal)])?
+        $field:ident: $ty:ty = $default:expr;
+        flag $flag:ident: $flag_ty:ty [$($arg:meta),*] => $to_key:expr;
+    )+) => {
+        /// Parameters of the solver, shared by every scenario (flattened into
+        /// each scenario's configuration: the TOML keys are these field names).
+        #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+        pub struct SolverConfig {
+            $(
+                $(#[doc = $doc])+
+                $(#[serde(rename = $key)])?
+                pub $field: $ty,
+            )+
+        }
+
+        impl Default for SolverConfig {
+            /// The hot/cold defaults of §6.1.1: 50³ in a cube of edge 10, Δt
+            /// 0.05, 150 frames, inviscid, g = 1, RK2 semi-Lagrangian, gridded
+            /// densities.
+            fn default() -> Self {
+                Self { $($field: $default,)+ }
+            }
+        }
+
+        /// The command-line flags of the [`SolverConfig`] keys (same name, `-`
+        /// for `_`, and the same doc); each given flag overrides its key.
+        #[cfg(feature = "clap")]
+        #[derive(Debug, Default, clap::Args)]
+        pub struct SolverFlags {
+            $(
+                $(#[doc = $doc])+
+                #[arg(long $(, $arg)*)]
+                pub $flag: $flag_ty,
+            )+
+        }
+
+        #[cfg(feature = "clap")]
+        impl SolverFlags {
+            /// The keys the given flags set, and their values (a layer for
+            /// [`resolve`]).
+            pub fn overrides(&self) -> Table {
+                let mut table = Table::new();
+                $(
+                    if let Some(value) = ($to_key)(&self.$flag) {
+                        table.insert(key_name!($field $(, $key)?).into(), value);
+                    }
+                )+
+                table
+            }
+        }
+    };
+}
+
+/// A key's TOML name: its `serde(rename)`, else its field name.
+#[cfg(feature = "clap")]
+macro_rules! key_name {
+    ($field:ident) => {
+        stringify!($field)
+    };
+    ($field:ident, $key:literal) => {
+        $key
+    };
+}
+
+/// The override of a value flag: its value, if given.
+#[cfg(feature = "clap")]
+fn given<T: Serialize>(flag: &Option<T>) -> Option<toml::Value> {
+    flag.as_ref()
+        .map(|v| toml::Value::try_from(v).expect("a flag's value is a TOML value"))
+}
+
+/// The override of a switch: `value`, if the switch is given.
+#[cfg(feature = "clap")]
+fn switch(value: bool) -> impl Fn(&bool) -> Option<toml::Value> {
+    move |on| on.then_some(toml::Value::Boolean(value))
+}
+
+/// `--cell-samples`: 1 or 8 (the message says what each means).
+#[cfg(feature = "clap")]
+fn parse_cell_samples(text: &str) -> Result<CellSamples, String> {
+    let n: usize = text.parse().map_err(|e| format!("{e}"))?;
+    CellSamples::try_from(n).map_err(|e| e.to_string())
+}
+
+solver_keys! {
     /// Cells per axis of the cubic box (the notes use 50).
-    pub res: usize,
+    res: usize = 50;
+    flag res: Option<usize> [allow_negative_numbers = true] => given;
+
     /// Edge length L of the cubic box, world units.
-    pub size: f32,
+    size: f32 = 10.0;
+    flag size: Option<f32> [allow_negative_numbers = true] => given;
+
     /// The box's faces: `periodic` (the notes' FFT box) or `closed` (six
-    /// walls with no normal flow; SL, MacCormack or BFECC advection and gridded densities).
+    /// walls with no normal flow; SL, MacCormack or BFECC advection and
+    /// gridded densities only).
     #[serde(rename = "box")]
-    pub box_kind: BoxKind,
+    box_kind: BoxKind = BoxKind::Periodic;
+    flag box_kind: Option<BoxKind> [long = "box", value_enum] => given;
+
     /// Number of time steps (one step per frame).
-    pub frames: usize,
+    frames: usize = 150;
+    flag frames: Option<usize> [allow_negative_numbers = true] => given;
+
     /// Time step Δt.
-    pub dt: f32,
+    dt: f32 = 0.05;
+    flag dt: Option<f32> [allow_negative_numbers = true] => given;
+
     /// Kinematic viscosity ν (0: inviscid, as the notes' eq 6.2).
-    pub nu: f32,
-    /// Magnitude of gravity; g⃗ = (0, −g, 0).
-    pub gravity: f32,
+    nu: f32 = 0.0;
+    flag nu: Option<f32> [allow_negative_numbers = true] => given;
+
+    /// Magnitude g of gravity; g⃗ = (0, −g, 0).
+    gravity: f32 = 1.0;
+    flag gravity: Option<f32> [allow_negative_numbers = true] => given;
+
     /// Semi-Lagrangian backtrace: `euler`, `rk2` or `rk3`.
-    pub backtrace: Backtrace,
+    backtrace: Backtrace = Backtrace::Rk2;
+    flag backtrace: Option<Backtrace> [value_enum] => given;
+
     /// Advection scheme for velocity and gridded densities: `sl`, `quick`,
-    /// `maccormack` or `bfecc` (gridless and SELMA densities always trace semi-Lagrangian
-    /// departure points; the scheme then moves the velocity).
-    pub advection: Scheme,
-    /// QUICK: split steps beyond the CFL bound into sub-steps (false: refuse them).
-    pub substeps: bool,
+    /// `maccormack` or `bfecc` (gridless and SELMA densities always trace
+    /// semi-Lagrangian departure points; the scheme then moves the velocity).
+    advection: Scheme = Scheme::Sl;
+    flag advection: Option<Scheme> [value_enum] => given;
+
+    /// QUICK: steps beyond the CFL bound are split into sub-steps (key
+    /// `substeps = true`, the default) or refused (`substeps = false`, flag
+    /// `--no-substeps`).
+    substeps: bool = true;
+    flag no_substeps: bool [] => switch(false);
+
     /// QUICK: limiter for the densities, `ultimate` or `none`.
-    pub limiter: Limiter,
+    limiter: Limiter = Limiter::Ultimate;
+    flag limiter: Option<Limiter> [value_enum] => given;
+
     /// How the densities are held: `gridded` (eq 6.4), `gridless` (eq 7.4) or
     /// `selma` (eq 8.8).
-    pub density: DensityMode,
-    /// SELMA map grid cells along the longest axis (default: `res`).
-    pub map_res: Option<usize>,
+    density: DensityMode = DensityMode::Gridded;
+    flag density: Option<DensityMode> [value_enum] => given;
+
+    /// SELMA map grid cells along the longest axis (default: `res`; finer is
+    /// SELMA^fine).
+    map_res: Option<usize> = None;
+    flag map_res: Option<usize> [allow_negative_numbers = true] => given;
+
     /// SELMA: re-anchor the map when its tracked lattice has deformed by more
     /// than this many map cells (0: never).
-    pub selma_remap: f32,
+    selma_remap: f32 = DEFAULT_SELMA_REMAP;
+    flag selma_remap: Option<f32> [allow_negative_numbers = true] => given;
+
     /// Gridless and SELMA: points per cell when the density is put on the
     /// grid for the buoyancy force and the saved volumes — `8`, the cell
     /// average over 2×2×2 sub-cell points (band-limited; the gridless
-    /// default), or `1`, the point sample at the cell centre (the SELMA
-    /// default; for gridless it aliases sub-cell filaments into specks).
-    pub cell_samples: Option<CellSamples>,
-    /// Also write the densities sampled at this resolution (`<gas>_fine_NNNN.npy`).
-    pub sample_res: Option<usize>,
+    /// default; adaptive: eight walks only in cells where the gas varies), or
+    /// `1`, the point sample at the cell centre (the SELMA default, whose
+    /// reference is already cell averages; for gridless it aliases sub-cell
+    /// filaments into specks).
+    cell_samples: Option<CellSamples> = None;
+    flag cell_samples: Option<CellSamples>
+        [allow_negative_numbers = true, value_parser = parse_cell_samples] => given;
+
+    /// Also write the densities sampled at this resolution
+    /// (`<gas>_fine_NNNN.npy`).
+    sample_res: Option<usize> = None;
+    flag sample_res: Option<usize> [allow_negative_numbers = true] => given;
+
     /// Write volumes and a preview every this many frames (0: metrics only).
-    pub save_every: usize,
+    save_every: usize = 10;
+    flag save_every: Option<usize> [allow_negative_numbers = true] => given;
+
     /// Compute the fine metrics (densities sampled at 2×, spectra, the
-    /// interpolant's divergence) every this many steps (≥ 1). Each costs
-    /// about 1.5 steps at 128³ hot/cold (experiment P-1), so the default 100
-    /// adds about 1.5 % to a run, and the per-step measures about 3 %.
-    pub metrics_every: usize,
+    /// interpolant's divergence) every this many steps (≥ 1) and at the last.
+    /// Each costs about 1.5 steps at 128³ hot/cold (experiment P-1), so the
+    /// default 100 adds about 1.5 % to a run, and the per-step measures about
+    /// 3 %.
+    metrics_every: usize = 100;
+    flag metrics_every: Option<usize> [allow_negative_numbers = true] => given;
+
     /// Arithmetic of the pressure solve's transforms: `f32` (default; after
     /// the projection `max|D u| Δx / max|u|` ≤ 1e-5 up to 256³, growing
     /// about as `ε N`; experiment P-1's `pressure_precision.csv`) or `f64`
-    /// (`max|D u|` at the faces' rounding; for finer grids).
-    pub pressure_precision: PressurePrecision,
-    /// Run even if the memory estimate exceeds the available memory.
-    pub force: bool,
-    /// Random seed (recorded; the scenarios themselves are deterministic).
-    pub seed: u64,
-    /// Worker threads (default: all cores).
-    pub threads: Option<usize>,
-}
+    /// (`max|D u|` at the faces' rounding; for finer grids, and the
+    /// convergence suite's).
+    pressure_precision: PressurePrecision = PressurePrecision::F32;
+    flag pressure_precision: Option<PressurePrecision> [value_enum] => given;
 
-impl Default for SolverConfig {
-    /// The hot/cold defaults of §6.1.1: 50³ in a cube of edge 10, Δt 0.05,
-    /// 150 frames, inviscid, g = 1, RK2 semi-Lagrangian, gridded densities.
-    fn default() -> Self {
-        Self {
-            res: 50,
-            size: 10.0,
-            box_kind: BoxKind::Periodic,
-            frames: 150,
-            dt: 0.05,
-            nu: 0.0,
-            gravity: 1.0,
-            backtrace: Backtrace::Rk2,
-            advection: Scheme::Sl,
-            substeps: true,
-            limiter: Limiter::Ultimate,
-            density: DensityMode::Gridded,
-            map_res: None,
-            selma_remap: DEFAULT_SELMA_REMAP,
-            cell_samples: None,
-            sample_res: None,
-            save_every: 10,
-            metrics_every: 100,
-            pressure_precision: PressurePrecision::F32,
-            force: false,
-            seed: 0,
-            threads: None,
-        }
-    }
+    /// Run even if the memory estimate exceeds the available memory.
+    force: bool = false;
+    flag force: bool [] => switch(true);
+
+    /// Random seed (recorded; the scenarios themselves are deterministic).
+    seed: u64 = 0;
+    flag seed: Option<u64> [allow_negative_numbers = true] => given;
+
+    /// Worker threads (default: all cores).
+    threads: Option<usize> = None;
+    flag threads: Option<usize> [allow_negative_numbers = true] => given;
 }
 
 impl SolverConfig {

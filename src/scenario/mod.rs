@@ -9,6 +9,8 @@ pub mod taylor_green;
 
 use serde::{Deserialize, Serialize};
 
+#[cfg(feature = "clap")]
+pub use config::SolverFlags;
 pub use config::{Scenario, SolverConfig};
 
 /// The scenarios `smokelab run` knows.
