@@ -27,7 +27,8 @@
 //! Run: `smokelab experiment 07-4` (29 s; most of it the fine march).
 //!
 //! Writes `results/07-4/`: `figure.png` (rows: fixed step cell, the
-//! figure; fixed step cell/10; each full frame beside its middle half 2×,
+//! figure; fixed step cell/10; their difference amplified; each full frame
+//! beside the 2× crop where that difference's coherent part is largest,
 //! labelled with the frame, its time and the march), `render.png` (the
 //! first alone), `initial_final.png` (fig 7.3, the unadvected wall, beside
 //! it, labelled), `data.csv` and `manifest.json`.
