@@ -589,9 +589,9 @@ pub(crate) fn run_compared(ctx: &Context, pic: Picture, extra: Vec<Difference>) 
     }
     let time = |frame: usize| format!("frame {frame}, t = {:.2} s", frame as f32 * flow.dt);
     let title = format!("{} · {} · {}³ flow", pic.title, time(f), config.res);
-    let mut names: Vec<String> = pic.panels.iter().map(|p| p.name.clone()).collect();
+    let names: Vec<String> = pic.panels.iter().map(|p| p.name.clone()).collect();
     let figure = difference_figure(&pic.panels, &renders, extra);
-    names.extend(figure.names.iter().cloned());
+    let row_names: Vec<String> = names.iter().chain(&figure.names).cloned().collect();
     let (w, h) = pic.size;
     let columns = [format!("full frame {w}×{h}"), figure.crop_heading()];
     let title = if figure.gains.is_empty() {
@@ -605,7 +605,7 @@ pub(crate) fn run_compared(ctx: &Context, pic: Picture, extra: Vec<Difference>) 
         6,
         &panels::Labels {
             title: &title,
-            rows: &names,
+            rows: &row_names,
             columns: &columns,
         },
     )?;
