@@ -37,9 +37,10 @@
 //! Run: `smokelab experiment 07-4` (29 s; most of it the fine march).
 //!
 //! Writes `results/07-4/`: `figure.png` (rows: fixed step cell, the
-//! figure; fixed step cell/10; MacCormack fixed step cell; each full frame
-//! beside its middle half 2×, labelled with the frame, its time, the
-//! march and the scheme), `render.png` (the
+//! figure; fixed step cell/10; MacCormack fixed step cell; the first's
+//! difference from the cell/10 march amplified; each full frame beside the
+//! 2× crop where that difference's coherent part is largest, labelled with
+//! the frame, its time, the march and the scheme), `render.png` (the
 //! first alone), `initial_final.png` (fig 7.3, the unadvected wall, beside
 //! it, labelled), `data.csv` and `manifest.json`.
 //! `data.csv` has a row per panel (`panel` names it): frames gridded and

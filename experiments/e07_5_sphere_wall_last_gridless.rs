@@ -8,7 +8,10 @@
 //! march. The notes: "the edges of filaments have been subtly sharpened".
 //! Measured at 50³ × 60 frames: sharpness 5.07 against 07-4's 5.00 grey
 //! levels² (+1.3 %) — sharper by the measure, subtly, as captioned; too
-//! subtly to see side by side, even in the 2× crops.
+//! subtly to see side by side, even in the 2× crops. So the figure adds
+//! their difference, 07-5 − 07-4 in luma amplified ×100 (orange brighter,
+//! blue darker): one or two grey levels, in streaks along the filaments'
+//! edges, and the crops are taken where it is largest.
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
 //! flow with the gases passing each other, 60 frames of Δt 0.1 (two solver
@@ -20,8 +23,8 @@
 //! Run: `smokelab experiment 07-5` (14 s).
 //!
 //! Writes `results/07-5/`: `figure.png` (rows: 59 gridded + 1 gridless,
-//! the figure; 60 gridded, 07-4's; full frames beside their middle halves
-//! 2×, labelled), `render.png` (the first alone), `initial_final.png`,
+//! the figure; 60 gridded, 07-4's; their difference amplified; full frames
+//! beside the 2× crop where the difference is largest, labelled), `render.png` (the first alone), `initial_final.png`,
 //! `data.csv` (the bytes include the one stored velocity grid; no fine
 //! march, so no error columns) and `manifest.json`.
 //! `data.csv` has a row per panel (`panel` names it): frames gridded and
@@ -40,7 +43,7 @@ use anyhow::Result;
 
 use crate::registry::{Context, Experiment};
 use crate::sphere_wall_series::{
-    figure_config, figure_size, run_picture, Holding, March, Panel, Picture,
+    figure_config, figure_size, run_compared, Difference, Holding, March, Panel, Picture,
 };
 
 /// Registry entry.
@@ -61,7 +64,7 @@ fn run(ctx: &Context) -> Result<()> {
         holding: Holding::Gridless { frames },
         march: March::CELL,
     };
-    run_picture(
+    run_compared(
         ctx,
         Picture {
             title: format!(
@@ -75,5 +78,10 @@ fn run(ctx: &Context) -> Result<()> {
                 panel(format!("{f} gridded (07-4)"), 0),
             ],
         },
+        vec![Difference {
+            name: "07-5 − 07-4".into(),
+            of: 0,
+            minus: 1,
+        }],
     )
 }

@@ -23,9 +23,13 @@
 //! grey levels rms, 82 % of its energy coherent (0.52 coherent), 2.3×
 //! the gridded 07-4's 0.22 under the same march and 2.4× the jittered
 //! march's 0.22 (its error noise). The aliasing is measured clearly but is
-//! still small in grey levels: in the figure it shows as faint streaks
+//! still small in grey levels: in the renders it shows as faint streaks
 //! along the filaments of the crops, not as the notes' "significant"
-//! aliasing.
+//! aliasing. The figure therefore adds each march's error against the
+//! fine one, amplified (×50 fixed, ×20 jittered at the default size): the
+//! fixed step's is bands, orange and blue stripes across the folded
+//! filaments; the jittered step's is grain spread over the whole wall. The
+//! crops are taken where the fixed step's coherent error is largest.
 //!
 //! Size: the notes' set-up by default and at `--full` — a 50³ hot/cold
 //! flow with the gases passing each other, 60 frames of Δt 0.1 (two solver
@@ -37,8 +41,9 @@
 //! Run: `smokelab experiment 07-6` (83 s; most of it the fine march).
 //!
 //! Writes `results/07-6/`: `figure.png` (rows: fixed step cell, the figure;
-//! jittered step cell; fixed step cell/10; full frames beside their middle
-//! halves 2×, labelled), `render.png` (the first alone), `initial_final.png`,
+//! jittered step cell; fixed step cell/10; the first two minus the third,
+//! amplified; full frames beside the 2× crop where the fixed step's
+//! coherent error is largest, labelled), `render.png` (the first alone), `initial_final.png`,
 //! `data.csv` (bytes include the `k` stored velocity grids) and
 //! `manifest.json`.
 //! `data.csv` has a row per panel (`panel` names it): frames gridded and

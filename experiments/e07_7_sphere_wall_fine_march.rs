@@ -18,8 +18,9 @@
 //! Run: `smokelab experiment 07-7` (about 70 s; most of it the fine march).
 //!
 //! Writes `results/07-7/`: `figure.png` (rows: fixed step cell/10, the
-//! figure; fixed step cell; full frames beside their middle halves 2×,
-//! labelled), `render.png` (the first alone), `initial_final.png`,
+//! figure; fixed step cell; the second minus the first, amplified ×50: the
+//! detail the cell march aliases; full frames beside the 2× crop where
+//! that difference's coherent part is largest, labelled), `render.png` (the first alone), `initial_final.png`,
 //! `data.csv` and `manifest.json`.
 //! `data.csv` has a row per panel (`panel` names it): frames gridded and
 //! gridless, march step and jitter, render seconds and samples, density

@@ -363,7 +363,10 @@ fn run(ctx: &Context) -> Result<()> {
         &[renders, cutaways],
         6,
         &panels::Labels {
-            title: "render, still-air frame: sphere (orange) flies right to left",
+            title: &format!(
+                "render, still-air frame: sphere (orange) flies right to left; {:.1} cells per D",
+                D * n as f32 / L
+            ),
             rows: &[
                 "whole cloud".into(),
                 "near half cut away at the path".into(),

@@ -35,6 +35,7 @@ pub mod registry;
 pub mod convergence_cases;
 mod density_compare;
 mod sphere_wall_series;
+mod render_difference;
 mod model_render;
 mod cloud_figures;
 mod warp_figures;

@@ -50,6 +50,23 @@ fn text_size(panel_side: u32) -> u32 {
     (panel_side / 12).clamp(11, 28)
 }
 
+/// The width in pixels of `text` drawn `size` pixels high in the labels'
+/// font (0 for no text).
+///
+/// # Errors
+/// If the font cannot lay the text out.
+fn text_width(text: &str, size: u32) -> Result<u32> {
+    if text.is_empty() {
+        return Ok(0);
+    }
+    crate::plot::ensure_font();
+    let font = (crate::plot::FAMILY, f64::from(size)).into_font();
+    let (w, _) = font
+        .box_size(text)
+        .map_err(|e| anyhow!("panels: measuring the label {text:?}: {e:?}"))?;
+    Ok(w)
+}
+
 /// The panels `rows[r][c]` in a grid, `gap` pixels apart, with `labels`
 /// drawn in margins left of the rows and above the columns.
 ///
@@ -95,15 +112,22 @@ pub fn grid(rows: &[Vec<RgbImage>], gap: u32, labels: &Labels) -> Result<RgbImag
         .min();
     let size = text_size(side.unwrap_or(0));
     let line = size + size / 2;
-    // Margins: the widest row name (estimated at 0.6 em per character), one
-    // line for the column headings, one for the title.
-    let left = match labels.rows.iter().map(|l| l.chars().count()).max() {
-        Some(n) if n > 0 => (n as u32 * size * 6 / 10) + size,
-        _ => 0,
-    };
+    // Margins: the widest row name as drawn plus half a line either side,
+    // one line for the column headings, one for the title.
+    let widest = labels
+        .rows
+        .iter()
+        .map(|l| text_width(l, size))
+        .collect::<Result<Vec<_>>>()?
+        .into_iter()
+        .max()
+        .unwrap_or(0);
+    let left = if widest > 0 { widest + size } else { 0 };
     let top =
         u32::from(!labels.columns.is_empty()) * line + u32::from(!labels.title.is_empty()) * line;
-    let width = left + widths.iter().sum::<u32>() + gap * (n_cols as u32 - 1);
+    let panels_width = left + widths.iter().sum::<u32>() + gap * (n_cols as u32 - 1);
+    // A title wider than the panels widens the figure rather than be cut.
+    let width = panels_width.max(text_width(labels.title, size)? + size);
     let height = top + heights.iter().sum::<u32>() + gap * (rows.len() as u32 - 1);
     let mut out = RgbImage::from_pixel(width, height, BACKGROUND);
     let mut y = top;
@@ -296,7 +320,7 @@ mod tests {
         assert_eq!(frame_heading(9, 0.05), "frame 9, t = 0.45 s");
         assert_eq!(frame_heading(20, 0.05), "frame 20, t = 1 s");
         let line = size + size / 2;
-        let left = 8 * size * 6 / 10 + size;
+        let left = text_width("gridless", size).unwrap() + size;
         assert_eq!(img.width(), left + 204);
         assert_eq!(img.height(), 2 * line + 164);
         // Each label put ink in its own margin cell.
@@ -333,6 +357,74 @@ mod tests {
                 (left + 104, 2 * line + 84, left + 204, 2 * line + 164)
             ),
             0
+        );
+    }
+
+    /// The first and last column of `img` in `rect` that hold ink.
+    fn ink_columns(img: &RgbImage, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> (u32, u32) {
+        let inked = |x: u32| (y0..y1).any(|y| *img.get_pixel(x, y) != BACKGROUND);
+        let first = (x0..x1).find(|&x| inked(x)).expect("no ink");
+        let last = (x0..x1).rev().find(|&x| inked(x)).expect("no ink");
+        (first, last)
+    }
+
+    #[test]
+    fn the_label_column_is_as_wide_as_its_widest_label() {
+        // Panels 480 px high: labels 28 px high, as in the 640×480 figures.
+        let rows = vec![vec![panel(640, 480, 0)], vec![panel(640, 480, 0)]];
+        let figure = |names: &[String]| {
+            let labels = Labels {
+                title: "",
+                rows: names,
+                columns: &[],
+            };
+            grid(&rows, 6, &labels).unwrap()
+        };
+        let short = ["whole cloud".to_string(), "gridded".to_string()];
+        let img = figure(&short);
+        let left = img.width() - 640;
+        // The label's ink starts within a text height of the edge and ends
+        // within one of the panels: no empty band beside a short label.
+        let (first, last) = ink_columns(&img, (0, 0, left, 480));
+        assert!(
+            first <= 28 && left - last <= 28,
+            "ink {first}–{last} of {left}"
+        );
+        // 11 characters take under a quarter of the figure.
+        assert!(
+            left * 4 < img.width(),
+            "label column {left} of {}",
+            img.width()
+        );
+        // A longer label widens the column by about its extra text.
+        let long = [
+            "whole cloud".to_string(),
+            "near half cut away at the path".to_string(),
+        ];
+        let wide = figure(&long);
+        let grown = wide.width() - img.width();
+        let extra = text_width(&long[1], 28).unwrap() - text_width(&short[0], 28).unwrap();
+        assert!(grown == extra && grown > 150, "grew {grown}, text {extra}");
+        let (first, _) = ink_columns(&wide, (0, 486, wide.width() - 640, 966));
+        assert!(first <= 28, "long label ink starts at {first}");
+    }
+
+    #[test]
+    fn a_title_wider_than_the_panels_widens_the_figure() {
+        let rows = vec![vec![panel(40, 40, 0)]];
+        let title = "a title far longer than one small panel is wide";
+        let labels = Labels {
+            title,
+            rows: &[],
+            columns: &[],
+        };
+        let img = grid(&rows, 0, &labels).unwrap();
+        let size = text_size(40);
+        assert_eq!(img.width(), text_width(title, size).unwrap() + size);
+        let (first, last) = ink_columns(&img, (0, 0, img.width(), size + size / 2));
+        assert!(
+            first > 0 && last < img.width() - 1,
+            "title cut: {first}–{last}"
         );
     }
 

@@ -27,6 +27,7 @@ use crate::memory;
 use crate::panels;
 use crate::plot::{Annotation, LegendPosition, Plot, Series, Style, PALETTE};
 use crate::registry::{Context, Size};
+use crate::render_difference;
 use crate::table::{read_rows, write_rows};
 use smokelab::advection::MacCormack;
 use smokelab::density::probe;
@@ -396,9 +397,42 @@ pub(crate) fn fine_picture(
     }
 }
 
-/// Zoom of the crops beside each full frame: the middle half of the
-/// picture, where the two plumes meet and fold the rows, 2× enlarged.
+/// Zoom of the crops beside each full frame: a window of half the
+/// picture's width and height, 2× enlarged, where the figure's first
+/// difference is largest ([`render_difference::busiest_window`]).
 const ZOOM: u32 = 2;
+
+/// A difference between two panels of a picture experiment, drawn as a row
+/// of its figure ([`render_difference`]): panel `of` minus panel `minus`.
+pub(crate) struct Difference {
+    /// Row name in the figure, without the amplification.
+    pub name: String,
+    pub of: usize,
+    pub minus: usize,
+}
+
+impl Difference {
+    /// The differences of each panel from the fine fixed march of the same
+    /// holding (the panels with error columns in `data.csv`), named by
+    /// march kind: "fixed − cell/10", "jittered − cell/10".
+    fn against_fine(panels: &[Panel]) -> Vec<Self> {
+        let mut out = vec![];
+        for (of, p) in panels.iter().enumerate() {
+            let fine = panels
+                .iter()
+                .position(|q| q.holding == p.holding && q.march == March::FINE);
+            if let Some(minus) = fine.filter(|_| p.march != March::FINE) {
+                let kind = if p.march.jitter { "jittered" } else { "fixed" };
+                out.push(Self {
+                    name: format!("{kind} − cell/{}", March::FINE.div),
+                    of,
+                    minus,
+                });
+            }
+        }
+        out
+    }
+}
 
 /// A row of a picture experiment's `data.csv`: one panel.
 #[derive(Serialize)]
@@ -488,9 +522,11 @@ pub(crate) fn last_sixth_picture(ctx: &Context, id: &str, marches: &[March]) -> 
 /// per holding), render it with the panel's march, and write
 ///
 /// - `render.png`: the first panel, the experiment's figure;
-/// - `figure.png`: every panel as a row, full frame and its middle
-///   [`ZOOM`]× enlarged side by side, labelled in the pixels (the panel,
-///   the frame and its time, the march);
+/// - `figure.png`: every panel as a row, full frame (the crop window
+///   outlined) and the crop [`ZOOM`]× enlarged side by side, then a row per
+///   [`Difference`] — each panel's against the fine fixed march of the
+///   same holding, then `extra` — amplified, all labelled in the pixels
+///   (the panel, the frame and its time, the march, the amplification);
 /// - `initial_final.png`: fig 7.3 (frame 0, the analytic wall, marched at
 ///   a jittered cell/10) beside the first panel, labelled;
 /// - `data.csv`: a [`PanelRow`] per panel — frames gridded and gridless,
@@ -500,6 +536,12 @@ pub(crate) fn last_sixth_picture(ctx: &Context, id: &str, marches: &[March]) -> 
 ///   the same holding, in whole and coherent;
 /// - `manifest.json`.
 pub(crate) fn run_picture(ctx: &Context, pic: Picture) -> Result<()> {
+    run_compared(ctx, pic, vec![])
+}
+
+/// [`run_picture`] with the `extra` differences drawn after the ones
+/// against the fine march.
+pub(crate) fn run_compared(ctx: &Context, pic: Picture, extra: Vec<Difference>) -> Result<()> {
     let start = Instant::now();
     let Setup { config, flow, wall } = Setup::of(ctx, pic.config)?;
     let f = flow.frames();
@@ -584,22 +626,22 @@ pub(crate) fn run_picture(ctx: &Context, pic: Picture) -> Result<()> {
     let time = |frame: usize| format!("frame {frame}, t = {:.2} s", frame as f32 * flow.dt);
     let title = format!("{} · {} · {}³ flow", pic.title, time(f), config.res);
     let names: Vec<String> = pic.panels.iter().map(|p| p.name.clone()).collect();
+    let figure = difference_figure(&pic.panels, &renders, extra);
+    let row_names: Vec<String> = names.iter().chain(&figure.names).cloned().collect();
     let (w, h) = pic.size;
-    let columns = [
-        format!("full frame {w}×{h}"),
-        format!("crop {ZOOM}× (middle 1/{ZOOM})"),
-    ];
-    let grid: Vec<Vec<RgbImage>> = renders
-        .iter()
-        .map(|(_, img, _)| vec![img.clone(), preview::zoom_centre(img, ZOOM)])
-        .collect();
+    let columns = [format!("full frame {w}×{h}"), figure.crop_heading()];
+    let title = if figure.gains.is_empty() {
+        title
+    } else {
+        format!("{title} · differences of luma: orange +, blue −")
+    };
     panels::save(
         &ctx.out.join("figure.png"),
-        &grid,
+        &figure.grid,
         6,
         &panels::Labels {
             title: &title,
-            rows: &names,
+            rows: &row_names,
             columns: &columns,
         },
     )?;
@@ -631,11 +673,80 @@ pub(crate) fn run_picture(ctx: &Context, pic: Picture) -> Result<()> {
         "max_speed": flow.max_speed(),
         "renders": renders.iter().map(|r| r.2).collect::<Vec<_>>(),
         "rows": rows,
+        "difference_gains": figure.gains,
+        "crop": figure.crop,
     });
     io::write_json(
         &ctx.out.join("manifest.json"),
         &Manifest::new(config, 0, start.elapsed().as_secs_f64(), extra),
     )
+}
+
+/// The rows of a picture experiment's `figure.png` and what they show.
+struct DifferenceFigure {
+    /// Per panel its full frame and crop, then per difference the same.
+    grid: Vec<Vec<RgbImage>>,
+    /// The differences' row names, with their amplification.
+    names: Vec<String>,
+    /// The amplification of each difference row.
+    gains: Vec<u32>,
+    /// The crop window: left, top, width, height in pixels.
+    crop: [u32; 4],
+}
+
+impl DifferenceFigure {
+    /// The crop column's heading: the zoom and the window's place.
+    fn crop_heading(&self) -> String {
+        let [x, y, w, h] = self.crop;
+        format!("crop {ZOOM}×: x {x}–{}, y {y}–{}", x + w, y + h)
+    }
+}
+
+/// The figure rows of `renders` (one per panel) and of their differences
+/// ([`Difference::against_fine`], then `extra`), each amplified to be seen
+/// ([`render_difference::gain`], stated in its row name); the crops at the window where the first
+/// difference is largest (the middle without any), outlined on the full
+/// frames.
+fn difference_figure(
+    panels: &[Panel],
+    renders: &[(usize, RgbImage, RenderStats)],
+    extra: Vec<Difference>,
+) -> DifferenceFigure {
+    let mut diffs = Difference::against_fine(panels);
+    diffs.extend(extra);
+    let img = |i: usize| &renders[i].1;
+    let (w, h) = img(0).dimensions();
+    let window = (w / ZOOM, h / ZOOM);
+    let values: Vec<Vec<f64>> = diffs
+        .iter()
+        .map(|d| render_difference::luma_difference(img(d.of), img(d.minus)))
+        .collect();
+    let origin = match values.first() {
+        Some(d) => render_difference::busiest_window(d, w, window),
+        None => ((w - window.0) / 2, (h - window.1) / 2),
+    };
+    let gains: Vec<u32> = values.iter().map(|d| render_difference::gain(d)).collect();
+    let row = |full: &RgbImage| {
+        let crop = render_difference::zoom_window(full, origin, window, ZOOM);
+        vec![render_difference::outlined(full, origin, window), crop]
+    };
+    let mut grid: Vec<Vec<RgbImage>> = renders.iter().map(|(_, i, _)| row(i)).collect();
+    grid.extend(
+        values
+            .iter()
+            .zip(&gains)
+            .map(|(d, &k)| row(&render_difference::image(d, w, k))),
+    );
+    DifferenceFigure {
+        grid,
+        names: diffs
+            .iter()
+            .zip(&gains)
+            .map(|(d, k)| format!("{}, ×{k}", d.name))
+            .collect(),
+        gains,
+        crop: [origin.0, origin.1, window.0, window.1],
+    }
 }
 
 /// Passes of the cost studies over all their points after the measured

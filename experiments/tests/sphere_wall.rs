@@ -6,9 +6,11 @@
 //! 08-2: `cost_studies.rs`).
 
 mod common;
-use common::{num, smoke_experiment as run, table};
+use common::{manifest, num, smoke_experiment as run, table};
 
 use std::path::Path;
+
+use image::RgbImage;
 
 /// Bytes of one velocity grid of `res`³ cells (3 floats per cell).
 fn velocity_grid(res: f64) -> f64 {
@@ -123,6 +125,79 @@ fn pictures_show_coloured_rows_and_record_their_holding() {
     }
 }
 
+/// The difference rows of each of 07-4 … 07-7 (name → panel minus panel).
+fn differences(id: &str) -> &'static [&'static str] {
+    match id {
+        "07-4" | "07-7" => &["fixed − cell/10"],
+        "07-5" => &["07-5 − 07-4"],
+        _ => &["fixed − cell/10", "jittered − cell/10"],
+    }
+}
+
+/// `figure.png` of a picture experiment shows what its caption and
+/// manifest say: a row per panel and per difference, the differences'
+/// amplifications as recorded, and in the first row the crop window
+/// recorded in the manifest, zoomed 2× from `render.png`.
+fn shows_its_crop_and_differences(id: &str, out: &Path, fig: &RgbImage, render: &RgbImage) {
+    let extra = &manifest(out)["extra"];
+    let panels = extra["panels"].as_array().unwrap().len();
+    let gains: Vec<u64> = extra["difference_gains"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|g| g.as_u64().unwrap())
+        .collect();
+    let names = differences(id);
+    assert_eq!(gains.len(), names.len(), "{id}: gains {gains:?}");
+    // Every row is as high as a render, 6 px apart, under a title and a
+    // line of headings.
+    let rows = (panels + names.len()) as u32;
+    let panel_rows = rows * render.height() + 6 * (rows - 1);
+    assert!(
+        fig.height() > panel_rows && fig.height() < panel_rows + 60,
+        "{id}: figure {} px high for {rows} rows",
+        fig.height()
+    );
+    let captions: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("figures.json")).unwrap()).unwrap();
+    let caption = captions["figure.png"].as_str().unwrap();
+    let crop: Vec<u32> = extra["crop"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap() as u32)
+        .collect();
+    let [x0, y0, w, h] = crop[..] else {
+        panic!("{id}: crop {crop:?}")
+    };
+    assert_eq!((w, h), (render.width() / 2, render.height() / 2), "{id}");
+    for (name, k) in names.iter().zip(&gains) {
+        assert!(
+            caption.contains(&format!("{name}, ×{k}")),
+            "{id}: caption {caption:?} lacks {name}, ×{k}"
+        );
+    }
+    assert!(
+        caption.contains(&format!("crop 2×: x {x0}–{}, y {y0}–{}", x0 + w, y0 + h)),
+        "{id}: caption {caption:?} does not place the crop at {crop:?}"
+    );
+    // The crop in the first row's second column is that window of the
+    // render, each pixel doubled.
+    let zoomed = RgbImage::from_fn(2 * w, 2 * h, |x, y| {
+        *render.get_pixel(x0 + x / 2, y0 + y / 2)
+    });
+    let top = fig.height() - panel_rows;
+    let found = (0..=fig.width() - zoomed.width()).any(|x| {
+        (0..zoomed.height()).all(|y| {
+            (0..zoomed.width()).all(|cx| fig.get_pixel(x + cx, top + y) == zoomed.get_pixel(cx, y))
+        })
+    });
+    assert!(
+        found,
+        "{id}: the first row's crop is not the render at {crop:?}"
+    );
+}
+
 /// The figures 07-4 … 07-7 show what the notes' captions say, measured at
 /// smoke size (24³ passing flow, 12 frames of Δt 0.5, the last 2 gridless
 /// in 07-6/07-7, 128×96 renders; 16³ with 6 frames cannot tell 07-6's
@@ -151,6 +226,7 @@ fn chapter_7_figures_sharpen_and_alias_as_captioned() {
             fig.dimensions(),
             render.dimensions()
         );
+        shows_its_crop_and_differences(id, &out, &fig, &render);
         table(&out.join("data.csv"))
     };
     let (t4, t5, t6, t7) = (first("07-4"), first("07-5"), first("07-6"), first("07-7"));
