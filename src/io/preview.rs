@@ -118,22 +118,6 @@ pub fn side_by_side(images: &[RgbImage], gap: u32) -> RgbImage {
     out
 }
 
-/// The middle `1/factor` of `img` in each direction, enlarged `factor`
-/// times by repeating pixels (nearest neighbour, so the picture's own pixels
-/// stay visible): a crop of the same size as `img`, give or take the
-/// remainder of the division.
-///
-/// # Panics
-/// If `factor` is 0.
-pub fn zoom_centre(img: &RgbImage, factor: u32) -> RgbImage {
-    assert!(factor > 0, "zoom factor must be at least 1");
-    let (w, h) = (img.width() / factor, img.height() / factor);
-    let (x0, y0) = ((img.width() - w) / 2, (img.height() - h) / 2);
-    RgbImage::from_fn(w * factor, h * factor, |x, y| {
-        *img.get_pixel(x0 + x / factor, y0 + y / factor)
-    })
-}
-
 /// Images one above another with a `gap`-pixel dark separator.
 ///
 /// # Panics
@@ -148,20 +132,4 @@ pub fn stacked(images: &[RgbImage], gap: u32) -> RgbImage {
         y0 += img.height() + gap;
     }
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn zoom_centre_enlarges_the_middle_pixels() {
-        // 7 × 6 at 3×: the middle 2 × 2 pixels, columns 2–3 and rows 2–3.
-        let img = RgbImage::from_fn(7, 6, |x, y| Rgb([x as u8, y as u8, 0]));
-        let z = zoom_centre(&img, 3);
-        assert_eq!(z.dimensions(), (6, 6));
-        assert_eq!(*z.get_pixel(0, 0), Rgb([2, 2, 0]));
-        assert_eq!(*z.get_pixel(2, 2), Rgb([2, 2, 0]));
-        assert_eq!(*z.get_pixel(3, 5), Rgb([3, 3, 0]));
-    }
 }
