@@ -104,7 +104,7 @@ impl Departures {
 /// every point. The point walks ([`departure_point`], [`departure_points`]:
 /// the gridless walk, SELMA's map) keep the pointwise rule.
 #[derive(Clone, Debug, Default)]
-pub struct Midpoint(Option<FaceGrid>);
+pub struct Midpoint(Option<Box<FaceGrid>>);
 
 impl Midpoint {
     /// The velocity and backtrace a grid sweep traces `backtrace` through
@@ -127,9 +127,9 @@ impl Midpoint {
         let fits =
             (self.0.as_ref()).is_some_and(|v| v.domain() == vel.domain() && v.kind() == vel.kind());
         if !fits {
-            self.0 = Some(FaceGrid::zeros(*vel.domain(), vel.kind()));
+            self.0 = Some(Box::new(FaceGrid::zeros(*vel.domain(), vel.kind())));
         }
-        let v = self.0.as_mut().expect("allocated above");
+        let v = self.0.as_deref_mut().expect("allocated above");
         isa.advect_faces(vel, vel, 0.5 * dt, Backtrace::Euler, v);
         (v, Backtrace::Euler)
     }
