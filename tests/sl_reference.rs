@@ -9,11 +9,6 @@
 //! both paths. The face sweep (its vector kernels included) must give the
 //! reference's bits; the departure points agree to 1e-6 of the largest speed.
 //!
-//! The sweeps trace RK2 as Euler through the midpoint velocity
-//! `V = SL_{Δt/2}(u)` (`advection::Midpoint`); the reference finds `V`
-//! face by face with its own Euler step of `u` over ½Δt ([`midpoint_ref`])
-//! and then traces Euler through it.
-//!
 //! Each test runs on every kernel width the CPU has (`common::on_every_isa`:
 //! scalar, then NEON or AVX2 and AVX-512F), on a box whose rows are shorter
 //! than sixteen (the AVX2 kernels, eight lanes) and one whose rows are
@@ -87,37 +82,6 @@ fn at_face_ref(vel: &FaceGrid, a: usize, f: [usize; 3]) -> Vec3 {
     }))
 }
 
-/// `V = SL_{Δt/2}(u)`, face by face: each face of component `a` takes
-/// `u_a` at `x − ½Δt u(x)`, `u(x)` the face's own four-face averages; a
-/// closed box's wall faces zero.
-fn midpoint_ref(vel: &FaceGrid, dt: f32) -> FaceGrid {
-    let (d, kind) = (*vel.domain(), vel.kind());
-    let mut v = FaceGrid::zeros(d, kind);
-    for a in 0..3 {
-        let [mx, my, _] = vel.face_dims(a);
-        for (n, out) in v.slice_mut(a).iter_mut().enumerate() {
-            let f = [n % mx, n / mx % my, n / (mx * my)];
-            if kind == BoxKind::Closed && (f[a] == 0 || f[a] == d.dims[a]) {
-                continue;
-            }
-            let mut c = Vec3::from_array(f.map(|x| x as f32));
-            c[a] -= 0.5;
-            let g = c - 0.5 * dt * at_face_ref(vel, a, f);
-            *out = component_ref(vel, a, vel.slice(a), g);
-        }
-    }
-    v
-}
-
-/// The velocity a sweep traces through and how: for RK2 Euler through
-/// [`midpoint_ref`], else `vel` itself.
-fn tracer(vel: &FaceGrid, dt: f32, bt: Backtrace) -> (FaceGrid, Backtrace) {
-    match bt {
-        Backtrace::Rk2 => (midpoint_ref(vel, dt), Backtrace::Euler),
-        _ => (vel.clone(), bt),
-    }
-}
-
 /// The previous departure arithmetic.
 fn departure_ref(vel: &FaceGrid, c: Vec3, u0: Vec3, dt: f32, bt: Backtrace) -> Vec3 {
     match bt {
@@ -156,7 +120,6 @@ fn face_advection_matches_the_general_stencil() {
             for bt in Backtrace::ALL {
                 let mut dst = FaceGrid::zeros(d, kind);
                 advect_faces(&src, &vel, 0.7, bt, &mut dst);
-                let (by, how) = tracer(&vel, 0.7, bt);
                 for a in 0..3 {
                     let [mx, my, mz] = vel.face_dims(a);
                     let got = dst.slice(a);
@@ -166,8 +129,8 @@ fn face_advection_matches_the_general_stencil() {
                             for i in 0..mx {
                                 let mut c = Vec3::new(i as f32, j as f32, k as f32);
                                 c[a] -= 0.5;
-                                let u0 = at_face_ref(&by, a, [i, j, k]);
-                                let g = departure_ref(&by, c, u0, 0.7, how);
+                                let u0 = at_face_ref(&vel, a, [i, j, k]);
+                                let g = departure_ref(&vel, c, u0, 0.7, bt);
                                 let wall = kind == BoxKind::Closed
                                     && ([i, j, k][a] == 0 || [i, j, k][a] == d.dims[a]);
                                 let want = if wall {
@@ -196,17 +159,16 @@ fn cell_departures_match_the_general_stencil() {
     on_every_isa(|isa| {
         for (d, (kind, speed)) in boxes([[10, 7, 9], [37, 7, 9]]) {
             let vel = rough(d, kind, speed);
+            let sampler = vel.sampler();
             for bt in Backtrace::ALL {
                 let mut dep = Departures::new(d);
                 dep.trace(&vel, 0.7, bt);
-                let (by, how) = tracer(&vel, 0.7, bt);
-                let sampler = by.sampler();
                 for (n, got) in dep.points().iter().enumerate() {
                     let [nx, ny, _] = d.dims;
                     let c = [n % nx, n / nx % ny, n / (nx * ny)];
                     let u0 = sampler.at_cell(c);
                     let want =
-                        departure_ref(&by, Vec3::from_array(c.map(|x| x as f32)), u0, 0.7, how);
+                        departure_ref(&vel, Vec3::from_array(c.map(|x| x as f32)), u0, 0.7, bt);
                     assert!(
                         (*got - want).abs().max_element() <= 1e-6 * (1.0 + speed),
                         "{isa} {kind} {speed} {bt:?} cell {c:?}: {got} vs {want}"
@@ -246,7 +208,6 @@ fn fused_densities_match_the_scalar_sweep_to_the_bit() {
                 let mut dsts: Vec<&mut ScalarGrid> = fused.iter_mut().collect();
                 let mut vel_out = FaceGrid::zeros(d, kind);
                 advect_fused(&vel, 0.7, bt, &srcs, &mut dsts, &mut vel_out);
-                let (by, how) = tracer(&vel, 0.7, bt);
                 for (src, got) in densities.iter().zip(&fused) {
                     let mut unfused = src.clone();
                     advect_scalar(src, &vel, 0.7, bt, &mut unfused);
@@ -257,7 +218,7 @@ fn fused_densities_match_the_scalar_sweep_to_the_bit() {
                             (n / nx % ny) as f32,
                             (n / (nx * ny)) as f32,
                         );
-                        let g = departure_point(&by, c, 0.7 / d.cell, how);
+                        let g = departure_point(&vel, c, 0.7 / d.cell, bt);
                         Stencil::new(g, d.dims, src.wrap()).apply(src.as_slice())
                     };
                     for (name, got) in [("fused", got), ("unfused", &unfused)] {

@@ -3,15 +3,13 @@
 //! projection alone (f32 and f64 transforms) and semi-Lagrangian advection
 //! alone; and the fused semi-Lagrangian sweep once per kernel width this CPU
 //! has (`sl_width/<isa>_<backtrace>/<res>`, each width selected with
-//! `Isa::select`, as `SMOKELAB_SIMD` would). RK2's midpoint velocity
-//! (`Midpoint`) is found inside the timed region, into a buffer kept
-//! between iterations as a simulation keeps it. Planning and warm-up are
+//! `Isa::select`, as `SMOKELAB_SIMD` would). Planning and warm-up are
 //! outside the timed region. Run: `cargo bench --bench solver`.
 
 mod warm;
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use smokelab::advection::{advect_faces, interpolate_scalar, Backtrace, Departures, Midpoint};
+use smokelab::advection::{advect_faces, advect_fused, interpolate_scalar, Backtrace, Departures};
 use smokelab::grid::{BoxKind, ScalarGrid};
 use smokelab::pressure::{PressurePrecision, PressureSolver};
 use smokelab::simd::Isa;
@@ -46,21 +44,18 @@ fn benches(c: &mut Criterion) {
         g.bench_function(BenchmarkId::new("sl_interpolate_scalar", res), |b| {
             b.iter(|| interpolate_scalar(sim.gases[0].density(), &dep, &mut rho))
         });
-        let (mut u, mut midpoint) = (sim.velocity.clone(), Midpoint::default());
-        let vel = &sim.velocity;
+        let mut u = sim.velocity.clone();
         g.bench_function(BenchmarkId::new("sl_advect_faces", res), |b| {
-            b.iter(|| {
-                let (by, how) = midpoint.tracer(Isa::selected(), vel, 0.05, Backtrace::Rk2);
-                advect_faces(vel, by, 0.05, how, &mut u)
-            })
+            b.iter(|| advect_faces(&sim.velocity, &sim.velocity, 0.05, Backtrace::Rk2, &mut u))
         });
         let mut rho2 = rho.clone();
         g.bench_function(BenchmarkId::new("sl_fused_two_gases", res), |b| {
             b.iter(|| {
                 let srcs = [sim.gases[0].density(), sim.gases[1].density()];
-                Isa::selected().advect_fused_with(
-                    &mut midpoint,
-                    (vel, 0.05, Backtrace::Rk2),
+                advect_fused(
+                    &sim.velocity,
+                    0.05,
+                    Backtrace::Rk2,
                     &srcs,
                     &mut [&mut rho, &mut rho2],
                     &mut u,
@@ -85,7 +80,7 @@ fn widths(c: &mut Criterion) {
             sim.gases[0].density().clone(),
             sim.gases[1].density().clone(),
         );
-        let (mut u, mut midpoint) = (sim.velocity.clone(), Midpoint::default());
+        let mut u = sim.velocity.clone();
         for isa in Isa::available() {
             isa.select().expect("an available width");
             for backtrace in [Backtrace::Euler, Backtrace::Rk2] {
@@ -93,9 +88,10 @@ fn widths(c: &mut Criterion) {
                 g.bench_function(BenchmarkId::new(name, res), |b| {
                     b.iter(|| {
                         let srcs = [sim.gases[0].density(), sim.gases[1].density()];
-                        isa.advect_fused_with(
-                            &mut midpoint,
-                            (&sim.velocity, 0.05, backtrace),
+                        advect_fused(
+                            &sim.velocity,
+                            0.05,
+                            backtrace,
                             &srcs,
                             &mut [&mut rho, &mut rho2],
                             &mut u,

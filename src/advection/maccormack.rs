@@ -28,9 +28,7 @@
 //! The same steps serve densities at the cell centres (the departure
 //! points traced once per step for every density, forwards and backwards:
 //! [`Departures`]) and each velocity component on its own faces
-//! ([`advect_faces`]), with every [`Backtrace`] (RK2 through the midpoint
-//! velocities of the forward and the backward step, [`Midpoint`], each
-//! found once per step); the clamp is one scalar
+//! ([`advect_faces`]), with every [`Backtrace`]; the clamp is one scalar
 //! pass over the departure points (rayon over rows). The SL steps run on
 //! the sweeps' vector kernels; a MacCormack step costs about twice SL's,
 //! a BFECC step three times, plus the clamp's re-trace of the faces.
@@ -38,13 +36,10 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::semi_lagrangian::{
-    advect_faces, departure_points, interpolate_scalar, Departures, Midpoint,
-};
+use super::semi_lagrangian::{advect_faces, departure_points, interpolate_scalar, Departures};
 use super::Backtrace;
 use crate::domain::Domain;
 use crate::grid::{FaceGrid, ScalarGrid, Stencil, Wrap};
-use crate::simd::Isa;
 
 /// How the round trip's error estimate `½(φⁿ − φ̂ⁿ)` corrects the step.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -56,10 +51,9 @@ pub enum Correction {
     Bfecc,
 }
 
-/// The MacCormack (or BFECC) scheme's per-step scratch: RK2's midpoint
-/// velocities and the departure points of the cell centres (forward and
-/// backward), the forward and backward velocities and densities.
-/// Allocated on first use, then reused.
+/// The MacCormack (or BFECC) scheme's per-step scratch: the departure
+/// points of the cell centres (forward and backward), the forward and
+/// backward velocities and densities. Allocated on first use, then reused.
 #[derive(Clone, Debug)]
 pub struct MacCormack {
     correction: Correction,
@@ -71,8 +65,6 @@ pub struct MacCormack {
 
 #[derive(Clone, Debug)]
 struct Scratch {
-    ahead: Midpoint,
-    behind: Midpoint,
     forward: Departures,
     backward: Departures,
     fwd_faces: FaceGrid,
@@ -85,8 +77,6 @@ impl Scratch {
     fn new(vel: &FaceGrid) -> Self {
         let (d, kind) = (*vel.domain(), vel.kind());
         Self {
-            ahead: Midpoint::default(),
-            behind: Midpoint::default(),
             forward: Departures::new(d),
             backward: Departures::new(d),
             fwd_faces: FaceGrid::zeros(d, kind),
@@ -154,20 +144,17 @@ impl MacCormack {
             self.scratch = Some(Box::new(Scratch::new(vel)));
         }
         let s = self.scratch.as_mut().expect("allocated above");
-        let isa = Isa::selected();
-        let ahead = s.ahead.tracer(isa, vel, dt, bt);
-        let behind = s.behind.tracer(isa, vel, -dt, bt);
         let mut reverted = step_faces(
             self.correction,
             vel,
-            (ahead, behind, dt),
+            (vel, dt, bt),
             (&mut s.fwd_faces, &mut s.bwd_faces),
             vel_out,
         );
         let mut samples: usize = (0..3).map(|a| vel_out.slice(a).len()).sum();
         if !srcs.is_empty() {
-            s.forward.trace(ahead.0, dt, ahead.1);
-            s.backward.trace(behind.0, -dt, behind.1);
+            s.forward.trace(vel, dt, bt);
+            s.backward.trace(vel, -dt, bt);
             for (src, dst) in srcs.iter().zip(dsts.iter_mut()) {
                 assert_eq!(
                     src.domain(),
@@ -276,26 +263,20 @@ fn step_scalar(
         .sum()
 }
 
-/// A velocity and the backtrace a sweep traces through it
-/// ([`Midpoint::tracer`]).
-type Tracer<'a> = (&'a FaceGrid, Backtrace);
-
-/// One corrected step of the staggered `src` into `dst` over `dt`, the
-/// forward steps traced by `ahead`, the backward by `behind`, each
-/// component on its own faces, with `(fwd, bwd)` as scratch: as
-/// [`step_scalar`], the departure points of each row of faces traced again
-/// for the clamp ([`departure_points`]) and the range taken over the
-/// corners of the component's own lattice. In a closed box the wall faces
-/// stay zero. Returns the number of reverted faces.
+/// One corrected step of the staggered `src` into `dst` through `(vel,
+/// dt, backtrace)`, each component on its own faces, with `(fwd, bwd)` as
+/// scratch: as [`step_scalar`], the departure points of each row of faces
+/// traced again for the clamp ([`departure_points`]) and the range taken
+/// over the corners of the component's own lattice. In a closed box the
+/// wall faces stay zero. Returns the number of reverted faces.
 fn step_faces(
     correction: Correction,
     src: &FaceGrid,
-    (ahead, behind, dt): (Tracer, Tracer, f32),
+    (vel, dt, backtrace): (&FaceGrid, f32, Backtrace),
     (fwd, bwd): (&mut FaceGrid, &mut FaceGrid),
     dst: &mut FaceGrid,
 ) -> usize {
-    let (vel, backtrace) = ahead;
-    for g in [src, &*fwd, &*bwd, &*dst, behind.0] {
+    for g in [src, &*fwd, &*bwd, &*dst] {
         assert_eq!(
             g.domain(),
             vel.domain(),
@@ -304,7 +285,7 @@ fn step_faces(
         assert_eq!(g.kind(), vel.kind(), "maccormack: faces in another box");
     }
     advect_faces(src, vel, dt, backtrace, fwd);
-    advect_faces(fwd, behind.0, -dt, behind.1, bwd);
+    advect_faces(fwd, vel, -dt, backtrace, bwd);
     match correction {
         Correction::MacCormack => {
             for a in 0..3 {
@@ -422,14 +403,10 @@ pub fn corrected_faces(
     let (d, kind) = (*vel.domain(), vel.kind());
     let mut fwd = FaceGrid::zeros(d, kind);
     let mut bwd = FaceGrid::zeros(d, kind);
-    let isa = Isa::selected();
-    let (mut ahead, mut behind) = (Midpoint::default(), Midpoint::default());
-    let ahead = ahead.tracer(isa, vel, dt, backtrace);
-    let behind = behind.tracer(isa, vel, -dt, backtrace);
     step_faces(
         correction,
         src,
-        (ahead, behind, dt),
+        (vel, dt, backtrace),
         (&mut fwd, &mut bwd),
         dst,
     );
@@ -484,8 +461,7 @@ mod tests {
 
     /// The backward step traces with −Δt through the sweeps' vector
     /// kernels; they must agree with the scalar `departure_point` and
-    /// stencil to the bit, as they do forwards (RK2: Euler through the
-    /// midpoint velocity of ±Δt, the velocity's own Euler step over ±½Δt).
+    /// stencil to the bit, as they do forwards.
     #[test]
     fn backward_steps_match_the_scalar_path_bit_for_bit() {
         for kind in BoxKind::ALL {
@@ -496,17 +472,9 @@ mod tests {
                 for dt in [0.05f32, -0.05] {
                     let mut out = ScalarGrid::zeros(d).with_wrap(kind.wrap());
                     advect_scalar(&q, &vel, dt, bt, &mut out);
-                    let (by, how) = match bt {
-                        Backtrace::Rk2 => {
-                            let mut v = FaceGrid::zeros(d, kind);
-                            advect_faces(&vel, &vel, 0.5 * dt, Backtrace::Euler, &mut v);
-                            (v, Backtrace::Euler)
-                        }
-                        _ => (vel.clone(), bt),
-                    };
                     let dep = Departures::new(d);
                     for (m, g) in dep.points().iter().enumerate() {
-                        let x = departure_point(&by, *g, dt / d.cell, how);
+                        let x = departure_point(&vel, *g, dt / d.cell, bt);
                         let want = Stencil::new(x, d.dims, kind.wrap()).apply(q.as_slice());
                         assert_eq!(out.as_slice()[m], want, "{kind:?} {bt:?} dt {dt} cell {m}");
                     }

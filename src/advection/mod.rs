@@ -28,7 +28,6 @@ use serde::{Deserialize, Serialize};
 
 use crate::domain::Domain;
 use crate::grid::{FaceGrid, ScalarGrid};
-use crate::simd::Isa;
 pub use maccormack::{
     bfecc_scalar, corrected_faces, corrected_scalar, maccormack_faces, maccormack_scalar,
     Correction, MacCormack,
@@ -37,7 +36,7 @@ pub use quick::{CflError, Limiter, Quick, QuickOptions};
 pub(crate) use semi_lagrangian::departure_points_wrapped;
 pub use semi_lagrangian::{
     advect_faces, advect_fused, advect_scalar, departure_point, departure_points,
-    interpolate_scalar, sample_face_grid_points, sample_face_points, Departures, Midpoint,
+    interpolate_scalar, sample_face_grid_points, sample_face_points, Departures,
 };
 
 /// How the departure point `x − ∫u dt` of a semi-Lagrangian step is traced.
@@ -48,9 +47,6 @@ pub enum Backtrace {
     /// One Euler step, `x − Δt u(x)`: first order in Δt.
     Euler,
     /// Midpoint rule, `x − Δt u(x − ½Δt u(x))`: second order in Δt.
-    /// The grid sweeps take the midpoint velocity from one half-step
-    /// self-advection of the velocity (`Midpoint`); point walks (gridless,
-    /// SELMA) evaluate it point by point.
     #[default]
     Rk2,
     /// Kutta's third-order rule.
@@ -133,8 +129,6 @@ pub enum Advector {
     SemiLagrangian {
         /// How departure points are traced.
         backtrace: Backtrace,
-        /// RK2's midpoint velocity, kept from step to step.
-        midpoint: Midpoint,
     },
     /// QUICK: face velocities frozen once per step.
     Quick {
@@ -152,10 +146,7 @@ impl Advector {
     /// State for `options.scheme` on `domain`; SL traces with `backtrace`.
     pub fn new(domain: Domain, options: &AdvectionOptions, backtrace: Backtrace) -> Self {
         match options.scheme {
-            Scheme::Sl => Advector::SemiLagrangian {
-                backtrace,
-                midpoint: Midpoint::default(),
-            },
+            Scheme::Sl => Advector::SemiLagrangian { backtrace },
             Scheme::Quick => Advector::Quick {
                 quick: Box::new(Quick::new(domain, options.quick)),
                 density_limiter: options.density_limiter,
@@ -186,12 +177,8 @@ impl Advector {
         vel_out: &mut FaceGrid,
     ) -> Result<(), CflError> {
         match self {
-            Advector::SemiLagrangian {
-                backtrace,
-                midpoint,
-            } => {
-                let step = (vel, dt, *backtrace);
-                Isa::selected().advect_fused_with(midpoint, step, srcs, dsts, vel_out);
+            Advector::SemiLagrangian { backtrace } => {
+                advect_fused(vel, dt, *backtrace, srcs, dsts, vel_out);
             }
             Advector::Quick {
                 quick,

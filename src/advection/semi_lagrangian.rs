@@ -6,9 +6,7 @@
 //! traced backwards through the velocity's point query (each component
 //! trilinear on its own lattice, [`FaceGrid::sample_grid_coords`]) with the
 //! chosen [`Backtrace`], and the advected quantity is interpolated trilinearly
-//! there: `q_new(x) = q(x_d)` — except that the grid sweeps trace RK2 as an
-//! Euler backtrace through the midpoint velocity ([`Midpoint`]). The first
-//! velocity sample of every backtrace,
+//! there: `q_new(x) = q(x_d)`. The first velocity sample of every backtrace,
 //! at the cell centre or face itself, is the exact average of the
 //! neighbouring faces ([`FaceSampler::at_cell`], [`FaceSampler::at_face`]),
 //! not an interpolation. Work is done in continuous cell-centre grid
@@ -45,7 +43,6 @@ use crate::simd::Isa;
 pub struct Departures {
     domain: Domain,
     points: Vec<Vec3>,
-    midpoint: Midpoint,
 }
 
 impl Departures {
@@ -59,11 +56,7 @@ impl Departures {
                 })
             })
             .collect();
-        Self {
-            domain,
-            points,
-            midpoint: Midpoint::default(),
-        }
+        Self { domain, points }
     }
 
     /// The domain whose cells these are.
@@ -76,62 +69,12 @@ impl Departures {
         &self.points
     }
 
-    /// Trace every cell centre back through `vel` over `dt` (RK2 through
-    /// the midpoint velocity, [`Midpoint`], whose buffer these keep).
+    /// Trace every cell centre back through `vel` over `dt`.
     ///
     /// # Panics
     /// If `vel` is on another domain.
     pub fn trace(&mut self, vel: &FaceGrid, dt: f32, backtrace: Backtrace) {
         Isa::selected().trace_departures(self, vel, dt, backtrace);
-    }
-}
-
-/// The midpoint velocity of the grid sweeps' RK2, in a buffer kept from
-/// step to step.
-///
-/// The midpoint rule traces `x_d = x − Δt V(x)` with
-/// `V(x) = u(x − ½Δt u(x))`. On the staggered grid, `V`'s component `a` at
-/// the faces of `a` is the semi-Lagrangian self-advection of `u` over ½Δt
-/// with an Euler backtrace, `V = SL_{Δt/2}(u)`, traced by `u` itself (eq
-/// 6.5 at half the step). So a grid sweep traces RK2 as one Euler sweep of
-/// the velocity over ½Δt ([`Midpoint::tracer`]) followed by Euler
-/// backtraces through `V`, whose start velocities at a face or cell centre
-/// are `V`'s own face values and averages, as the Euler backtrace takes
-/// them from `u`. It is second order in Δt — `V` differs from the
-/// pointwise midpoint velocity by those averages, `O(Δx²)` — at one
-/// trilinear per traced point and one extra velocity sweep, where the
-/// pointwise rule interpolates the velocity (three trilinears) again at
-/// every point. The point walks ([`departure_point`], [`departure_points`]:
-/// the gridless walk, SELMA's map) keep the pointwise rule.
-#[derive(Clone, Debug, Default)]
-pub struct Midpoint(Option<Box<FaceGrid>>);
-
-impl Midpoint {
-    /// The velocity and backtrace a grid sweep traces `backtrace` through
-    /// `vel` over `dt` by, on `isa`: for RK2 `V = SL_{Δt/2}(u)` (computed
-    /// into the buffer, allocated on first use or for another domain or
-    /// box) and Euler; else `vel` and `backtrace` themselves.
-    ///
-    /// # Panics
-    /// If this CPU cannot run `isa`.
-    pub fn tracer<'a>(
-        &'a mut self,
-        isa: Isa,
-        vel: &'a FaceGrid,
-        dt: f32,
-        backtrace: Backtrace,
-    ) -> (&'a FaceGrid, Backtrace) {
-        if backtrace != Backtrace::Rk2 {
-            return (vel, backtrace);
-        }
-        let fits =
-            (self.0.as_ref()).is_some_and(|v| v.domain() == vel.domain() && v.kind() == vel.kind());
-        if !fits {
-            self.0 = Some(Box::new(FaceGrid::zeros(*vel.domain(), vel.kind())));
-        }
-        let v = self.0.as_deref_mut().expect("allocated above");
-        isa.advect_faces(vel, vel, 0.5 * dt, Backtrace::Euler, v);
-        (v, Backtrace::Euler)
     }
 }
 
@@ -141,8 +84,7 @@ impl Midpoint {
 ///
 /// The scalar reference of every sweep's lanes ([`super::kernel`]): gridless
 /// and SELMA densities follow exactly the characteristics of the gridded
-/// path, which traces RK2 through the midpoint velocity instead
-/// ([`Midpoint`]: the same rule up to `O(Δx²)` in its velocity).
+/// path.
 #[inline]
 pub fn departure_point(vel: &FaceGrid, g: Vec3, dt_cells: f32, backtrace: Backtrace) -> Vec3 {
     let sampler = vel.sampler();
@@ -207,9 +149,8 @@ pub fn interpolate_scalar(src: &ScalarGrid, dep: &Departures, dst: &mut ScalarGr
 }
 
 /// `dst = src(x − ∫u dt)`: advect a scalar grid by `vel` over `dt` (eq 6.4
-/// without the source). Allocates its departure points (and for RK2 the
-/// midpoint velocity, [`Midpoint`]); time steps that move several
-/// quantities use [`Departures`] or [`advect_fused`].
+/// without the source). Allocates its departure points; time steps that move
+/// several quantities use [`Departures`] or [`advect_fused`].
 pub fn advect_scalar(
     src: &ScalarGrid,
     vel: &FaceGrid,
@@ -222,8 +163,7 @@ pub fn advect_scalar(
 
 /// `dst = src(x − ∫u dt)` for a staggered field (eq 6.5 without the force):
 /// each component of `src` interpolated on its own lattice at the departure
-/// points of its own faces. In a closed box the wall faces stay zero. For
-/// RK2 it allocates the midpoint velocity ([`Midpoint`]).
+/// points of its own faces. In a closed box the wall faces stay zero.
 ///
 /// # Panics
 /// If the grids differ in domain or box kind.
@@ -241,9 +181,7 @@ pub fn advect_faces(
 /// `vel_out = vel(x_d)` along each component's faces ([`advect_faces`])
 /// and `dsts[n] = srcs[n](x_d)` at the cell centres, the departure point
 /// `x_d` traced once per cell and shared through one stencil (eqs 6.4–6.5
-/// without sources and forces), in one pass over z-slabs. For RK2 it
-/// allocates the midpoint velocity ([`Midpoint`]); a time step keeps it
-/// ([`super::Advector`]).
+/// without sources and forces), in one pass over z-slabs.
 ///
 /// # Panics
 /// If a grid is on another domain, or `srcs` and `dsts` differ in length.
@@ -278,7 +216,6 @@ impl Isa {
             "departures: velocity on another domain"
         );
         let [nx, ny, _] = dep.domain.dims;
-        let (vel, backtrace) = dep.midpoint.tracer(self, vel, dt, backtrace);
         let v = Vel::new(vel.sampler());
         let trace = (&v, dt / vel.domain().cell, backtrace);
         dep.points
@@ -394,9 +331,7 @@ impl Isa {
             assert_eq!(g.kind(), vel.kind(), "advect_faces: another box kind");
         }
         let faces = [src.slice(0), src.slice(1), src.slice(2)];
-        let mut midpoint = Midpoint::default();
-        let tracer = midpoint.tracer(self, vel, dt, backtrace);
-        sweep(self, (tracer, dt), (faces, dst), (&[], &mut []));
+        sweep(self, vel, (dt, backtrace), (faces, dst), (&[], &mut []));
     }
 
     /// [`advect_fused`] on this instruction set.
@@ -409,23 +344,6 @@ impl Isa {
         vel: &FaceGrid,
         dt: f32,
         backtrace: Backtrace,
-        srcs: &[&ScalarGrid],
-        dsts: &mut [&mut ScalarGrid],
-        vel_out: &mut FaceGrid,
-    ) {
-        let mut midpoint = Midpoint::default();
-        self.advect_fused_with(&mut midpoint, (vel, dt, backtrace), srcs, dsts, vel_out);
-    }
-
-    /// [`Isa::advect_fused`] with RK2's midpoint velocity in `midpoint`'s
-    /// buffer, kept from step to step.
-    ///
-    /// # Panics
-    /// As [`Isa::advect_fused`].
-    pub fn advect_fused_with(
-        self,
-        midpoint: &mut Midpoint,
-        (vel, dt, backtrace): (&FaceGrid, f32, Backtrace),
         srcs: &[&ScalarGrid],
         dsts: &mut [&mut ScalarGrid],
         vel_out: &mut FaceGrid,
@@ -452,20 +370,18 @@ impl Isa {
         );
         assert_eq!(vel_out.kind(), vel.kind(), "advect_fused: another box kind");
         let faces = [vel.slice(0), vel.slice(1), vel.slice(2)];
-        let tracer = midpoint.tracer(self, vel, dt, backtrace);
-        sweep(self, (tracer, dt), (faces, vel_out), (srcs, dsts));
+        sweep(self, vel, (dt, backtrace), (faces, vel_out), (srcs, dsts));
     }
 }
 
-/// One pass over the z-slabs of `vel`'s domain on `isa`, tracing through
-/// `vel` by `backtrace` (Euler or RK3: RK2 is Euler through its midpoint
-/// velocity, [`Midpoint::tracer`]): in each slab, the faces of every
-/// component (`faces`: the data moved along each component's own lattice,
-/// and where it goes; its wall faces then zeroed) and the cells of every
-/// gas.
+/// One pass over the z-slabs of `vel`'s domain on `isa`: in each, the
+/// faces of every component (`faces`: the data moved along each
+/// component's own lattice, and where it goes; its wall faces then zeroed)
+/// and the cells of every gas.
 fn sweep(
     isa: Isa,
-    ((vel, backtrace), dt): ((&FaceGrid, Backtrace), f32),
+    vel: &FaceGrid,
+    (dt, backtrace): (f32, Backtrace),
     (faces, dst): ([&[f32]; 3], &mut FaceGrid),
     (srcs, dsts): (&[&ScalarGrid], &mut [&mut ScalarGrid]),
 ) {
@@ -579,9 +495,7 @@ fn sample_faces_mapped(
 /// traced through the kernel's lanes ([`CellRows::trace`]) and cell-centred
 /// grids sampled there, one stencil per point ([`CellRows::sample`]) — the
 /// same bits as [`departure_point`] and [`crate::grid::Stencil`] point by
-/// point. RK2 here is the pointwise rule of the point walks, not the
-/// [`Midpoint`] of the grid sweeps: SELMA's map follows the gridless walk
-/// and is inverted by it.
+/// point.
 pub(crate) struct CellRows<'a> {
     isa: Isa,
     vel: Vel<'a>,

@@ -276,10 +276,47 @@ macro_rules! kernel {
             }
         }
 
-        /// [`trace`] of two groups (the grid sweeps: Euler or RK3).
+        /// [`velocity`] at two groups of points, their interpolations
+        /// interleaved component by component: the chains of one overlap
+        /// the other's (an interpolation waits mostly on its own chain of
+        /// latencies, floor → row → window → loads → permutes → sums).
+        #[inline(always)]
+        fn velocity2(vel: &Vel, g: [[F; 3]; 2]) -> [([F; 3], M); 2] {
+            let half = splat(0.5);
+            let [a, b] = g;
+            let (d, w) = (vel.dims, vel.wrap);
+            let (sa, sb) = (
+                stencil(d[0], w, [add(a[0], half), a[1], a[2]]),
+                stencil(d[0], w, [add(b[0], half), b[1], b[2]]),
+            );
+            let (ua, ub) = (apply(sa, vel.data[0]), apply(sb, vel.data[0]));
+            let (mut bad_a, mut bad_b) = (sa.bad, sb.bad);
+            let (sa, sb) = (
+                stencil(d[1], w, [a[0], add(a[1], half), a[2]]),
+                stencil(d[1], w, [b[0], add(b[1], half), b[2]]),
+            );
+            let (va, vb) = (apply(sa, vel.data[1]), apply(sb, vel.data[1]));
+            (bad_a, bad_b) = (or(bad_a, sa.bad), or(bad_b, sb.bad));
+            let (sa, sb) = (
+                stencil(d[2], w, [a[0], a[1], add(a[2], half)]),
+                stencil(d[2], w, [b[0], b[1], add(b[2], half)]),
+            );
+            let (wa, wb) = (apply(sa, vel.data[2]), apply(sb, vel.data[2]));
+            [([ua, va, wa], or(bad_a, sa.bad)), ([ub, vb, wb], or(bad_b, sb.bad))]
+        }
+
+        /// [`trace`] of two groups, the RK2 midpoints' interpolations
+        /// interleaved ([`velocity2`]).
         #[inline(always)]
         fn trace2<const BT: u8>(vel: &Vel, c: [[F; 3]; 2], u0: [[F; 3]; 2], dt: f32) -> [([F; 3], M); 2] {
-            [trace::<BT>(vel, c[0], u0[0], dt), trace::<BT>(vel, c[1], u0[1], dt)]
+            match BT {
+                RK2 => {
+                    let mid = [back(c[0], u0[0], 0.5 * dt), back(c[1], u0[1], 0.5 * dt)];
+                    let [(ua, ba), (ub, bb)] = velocity2(vel, mid);
+                    [(back(c[0], ua, dt), ba), (back(c[1], ub, dt), bb)]
+                }
+                _ => [trace::<BT>(vel, c[0], u0[0], dt), trace::<BT>(vel, c[1], u0[1], dt)],
+            }
         }
 
         /// Grid coordinates of lanes `i …` of row `(j, k)`: cell centres,
@@ -473,7 +510,7 @@ macro_rules! kernel {
         pub(super) fn slab(sw: &Sweep, out: &mut SlabOut, scratch: &mut Scratch) {
             match sw.backtrace {
                 Backtrace::Euler => slab_traced::<EULER>(sw, out, scratch),
-                Backtrace::Rk2 => unreachable!("{}", super::RK2_SWEEP),
+                Backtrace::Rk2 => slab_traced::<RK2>(sw, out, scratch),
                 Backtrace::Rk3 => slab_traced::<RK3>(sw, out, scratch),
             }
         }

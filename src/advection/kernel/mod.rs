@@ -47,10 +47,6 @@ pub(crate) const EULER: u8 = 0;
 pub(crate) const RK2: u8 = 1;
 pub(crate) const RK3: u8 = 2;
 
-/// Why no grid sweep reaches the kernel with RK2.
-pub(crate) const RK2_SWEEP: &str =
-    "a grid sweep traces RK2 as Euler through the midpoint velocity (semi_lagrangian::Midpoint)";
-
 /// Largest lane count of any instruction set.
 pub(crate) const MAX_LANES: usize = 16;
 
@@ -95,7 +91,7 @@ pub(crate) fn fits(dims: [usize; 3]) -> bool {
 /// One grid sweep: the faces of every component (`faces`: the data
 /// advected along each component's own lattice, laid out like it) and the
 /// cell-centred `gases`, moved through `vel` over `dt` cells with
-/// `backtrace` (Euler or RK3: [`RK2_SWEEP`]).
+/// `backtrace`.
 pub(crate) struct Sweep<'a> {
     pub(crate) vel: Vel<'a>,
     pub(crate) dt: f32,
@@ -211,10 +207,8 @@ mod reference {
 /// cells, row by row, `isa`'s lanes at a time.
 ///
 /// # Panics
-/// If an output slab is shorter than its lattice's, or the sweep traces
-/// RK2 ([`RK2_SWEEP`]).
+/// If an output slab is shorter than its lattice's.
 pub(crate) fn slab(isa: Isa, sweep: &Sweep, out: &mut SlabOut, scratch: &mut Scratch) {
-    assert!(sweep.backtrace != Backtrace::Rk2, "{RK2_SWEEP}");
     if !sweep.vel.fits {
         return reference::slab(sweep, out);
     }
