@@ -140,10 +140,13 @@ pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
     })
 }
 
-/// Write an 8-bit RGB image as PNG.
+/// Write an 8-bit RGB image as PNG, compressed as far as the encoder goes
+/// (adaptive filters, best deflate): figures with noise rows stay small.
 pub fn write_png(path: &Path, img: &image::RgbImage) -> Result<()> {
+    use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     write_atomic(path, |w| {
-        img.write_to(w, image::ImageFormat::Png)?;
+        let png = PngEncoder::new_with_quality(w, CompressionType::Best, FilterType::Adaptive);
+        img.write_with_encoder(png)?;
         Ok(())
     })
 }
