@@ -51,7 +51,7 @@
 //! checkpoint survives a kill at any moment; the temporary file is removed
 //! on error and on Ctrl-C.
 
-use std::io::Write;
+use std::io::{BufWriter, Write};
 use std::path::Path;
 
 use anyhow::Result;
@@ -181,16 +181,18 @@ pub fn write(dir: &Path, sim: &Simulation, run: &RunRecord) -> Result<()> {
     };
     let json = serde_json::to_vec(&header)?;
     io::write_atomic(&dir.join(FILE), |w| {
-        let mut h = Hashing {
+        // Buffered before the hash: postcard writes an f32 at a time.
+        let hashing = Hashing {
             inner: &mut *w,
             hash: FNV_OFFSET,
         };
+        let mut h = BufWriter::with_capacity(1 << 16, hashing);
         h.write_all(MAGIC)?;
         h.write_all(&FORMAT.to_le_bytes())?;
         h.write_all(&(json.len() as u64).to_le_bytes())?;
         h.write_all(&json)?;
         let h = postcard::to_io(&state, h)?;
-        let hash = h.hash;
+        let hash = h.into_inner().map_err(|e| e.into_error())?.hash;
         w.write_all(&hash.to_le_bytes())?;
         Ok(())
     })
