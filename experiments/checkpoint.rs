@@ -2,55 +2,78 @@
 //! RUN_DIR` continues a killed run to the bitwise-identical frames and
 //! metrics of an uninterrupted one.
 //!
-//! What is stored is [`Simulation::state`] — the step count, the staggered
-//! velocity, and per gas its mass budget and density state (gridded: the
-//! grid; gridless: the history of velocity grids, each grid shared between
-//! gases stored once; SELMA: reference density, whether `ρ₀` is still
-//! composed, and the map and tracked lattice stored with the gas that owns
-//! them — the first of the gases sharing them), and the obstacle solves' warm starts
-//! (the exact projection's f64 pressure, QUICK's face potential) — and the
-//! [`RunRecord`]: scenario,
-//! resolved configuration and the output flags. Sources, obstacles,
+//! What is stored is the [`RunRecord`] (scenario, resolved configuration
+//! and the output flags) and [`Simulation::state`]: the step count, the
+//! staggered velocity, per gas its mass budget and density state (gridded:
+//! the grid; gridless: the history of velocity grids, each grid shared
+//! between gases stored once; SELMA: reference density, whether `ρ₀` is
+//! still composed, re-anchorings, and the map and tracked lattice with the
+//! gas that owns them), and the obstacle solves' warm starts (the exact
+//! projection's f64 pressure, QUICK's face potential). Sources, obstacles,
 //! transform plans and scratch buffers are rebuilt from the configuration.
 //! The step has no random numbers (the seed only places the initial
 //! conditions, rebuilt from the configuration; the metrics' probe points
 //! are drawn from a fixed seed), so there is no RNG state to keep.
 //!
-//! Layout, little-endian:
+//! # Format 3
+//!
+//! In this order:
 //!
 //! ```text
-//! "SMKCKPT\0" | format u32 | header length u64 | header (JSON)
-//!   | arrays (f32, or f64 as two words; in the header's order, sizes in
-//!     4-byte words) | FNV-1a 64 of all before
+//! "SMKCKPT\0"   8 bytes     the format's name
+//! format        u32 LE      3 (FORMAT); other formats are refused
+//! header size   u64 LE      bytes of the header
+//! header        JSON        {"version": smokelab version, "commit": build commit,
+//!                            "run": the RunRecord, "step": steps taken,
+//!                            "time": simulated time, "gases": per gas its
+//!                            "mode" and SELMA "restarts" (0 otherwise)}
+//! state         postcard    the SimulationState, to the end but 8 bytes
+//! checksum      u64 LE      FNV-1a 64 of every byte before it
 //! ```
+//!
+//! The state is the library's serde serialization of
+//! [`SimulationState`] in the postcard wire format (version 1): integers
+//! as LEB128 varints, `f32`/`f64` as their 4/8 little-endian bytes, a
+//! sequence as its length then its elements, an option as a byte 0/1 then
+//! the value, an enum as its variant's index then its fields, a struct or
+//! tuple as its fields in order. So every array is its length followed by
+//! its raw little-endian values: `step_index`, `velocity` (`FaceGrid`:
+//! domain `(origin, cell, dims)`, box kind, `[u, v, w]`), `gases`
+//! (`smokelab::density::stored`: the distinct gridless velocity grids,
+//! then per gas its budget `(advection, cleared)` and its state),
+//! `obstacle_pressure` (f64), `face_potential` (f32). To read one: check
+//! the name, the checksum and the format, parse the header, then
+//! `postcard::from_bytes::<SimulationState>` of the state's bytes, with
+//! the smokelab version the header names.
 //!
 //! The file is written through a uniquely named temporary file in the run
 //! folder, synced and renamed ([`io::write_atomic`]), so the latest whole
 //! checkpoint survives a kill at any moment; the temporary file is removed
 //! on error and on Ctrl-C.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::io::{BufWriter, Write};
+use std::path::Path;
 
 use anyhow::Result;
 use serde::{Deserialize, Serialize};
-use smokelab::advection::Backtrace;
-use smokelab::density::{DensityMode, DensityState, MapState};
+use smokelab::density::{DensityMode, DensityState};
 use smokelab::error::InputError;
-use smokelab::grid::{FaceGrid, VectorGrid};
 use smokelab::io::{self, manifest::BUILD_COMMIT};
 use smokelab::scenario::ScenarioKind;
-use smokelab::simulation::{MassBudget, Simulation, SimulationState};
+use smokelab::simulation::{Simulation, SimulationState};
 
 /// The checkpoint's file name in the run folder.
 pub const FILE: &str = "checkpoint.bin";
 
+/// The format's name, the file's first bytes.
 const MAGIC: &[u8; 8] = b"SMKCKPT\0";
 
-/// The layout version this build writes and reads (2: SELMA gases share
-/// one map, stored once).
-pub const FORMAT: u32 = 2;
+/// The format this build writes and reads (3: the state through serde and
+/// postcard).
+pub const FORMAT: u32 = 3;
+
+/// Bytes before the header: name, format and header size.
+const PREAMBLE: usize = 20;
 
 /// What a run needs besides its state to go on as it started.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -63,9 +86,7 @@ pub struct RunRecord {
     pub checkpoint_every: usize,
     /// `--vdb`.
     pub vdb: bool,
-    /// `--density-grid` and `--up` of the VDB frames (absent in checkpoints
-    /// written before they existed: the defaults).
-    #[serde(default)]
+    /// `--density-grid` and `--up` of the VDB frames.
     pub vdb_frames: crate::export::VdbFrames,
     /// `--paraview`.
     pub paraview: bool,
@@ -84,7 +105,8 @@ pub struct RenderFlags {
     pub march_step: Option<f32>,
 }
 
-/// The header: everything but the arrays.
+/// The header: what the run was, for a reader of the file and for
+/// `--resume`'s checks before the state is restored.
 #[derive(Serialize, Deserialize)]
 struct Header {
     /// smokelab version that wrote it.
@@ -92,28 +114,30 @@ struct Header {
     /// Its build commit.
     commit: String,
     run: RunRecord,
-    /// Steps taken.
+    /// Steps taken (the state's `step_index`).
     step: usize,
-    gases: Vec<GasHeader>,
-    /// Distinct gridless velocity grids stored.
-    history: usize,
-    /// Every array's name and size in 4-byte words (an f64 is two), in file order.
-    arrays: Vec<(String, usize)>,
+    /// Simulated time.
+    time: f32,
+    gases: Vec<GasSummary>,
 }
 
-/// One gas: its mode, budget (f64 bits: exact), and the non-array state.
+/// A gas as the header lists it (its state holds the same).
 #[derive(Serialize, Deserialize)]
-struct GasHeader {
+struct GasSummary {
     mode: DensityMode,
-    budget_bits: [u64; 2],
-    /// Gridless: per step, the index of its velocity grid, Δt's bits and the backtrace.
-    steps: Vec<(usize, u32, Backtrace)>,
-    /// SELMA: `ρ₀` still composed, and re-anchorings so far.
-    composes_initial: bool,
+    /// SELMA's re-anchorings so far (0 in the other modes).
     restarts: usize,
-    /// SELMA: the gas shares the map of the SELMA gas before it (its map
-    /// and lattice are not stored).
-    shares_map: bool,
+}
+
+impl GasSummary {
+    fn of(state: &DensityState) -> Self {
+        let (mode, restarts) = match state {
+            DensityState::Gridded(_) => (DensityMode::Gridded, 0),
+            DensityState::Gridless { .. } => (DensityMode::Gridless, 0),
+            DensityState::Selma(s) => (DensityMode::Selma, s.restarts),
+        };
+        Self { mode, restarts }
+    }
 }
 
 /// FNV-1a, 64 bit, of everything written through it.
@@ -144,169 +168,40 @@ impl<W: Write> Write for Hashing<W> {
     }
 }
 
-/// A state as the file lays it out.
-struct Layout<'a> {
-    gases: Vec<GasHeader>,
-    /// Every array's name and values, in file order.
-    arrays: Vec<(String, Values<'a>)>,
-    /// Distinct gridless velocity grids.
-    history: usize,
-}
-
-/// An array's values, f32 or f64.
-#[derive(Clone, Copy)]
-enum Values<'a> {
-    F32(&'a [f32]),
-    F64(&'a [f64]),
-}
-
-impl Values<'_> {
-    /// Length in 4-byte words.
-    fn words(&self) -> usize {
-        match self {
-            Values::F32(a) => a.len(),
-            Values::F64(a) => 2 * a.len(),
-        }
-    }
-
-    /// Write the values' little-endian bytes to `w`, in chunks.
-    fn write_to(&self, w: &mut impl Write) -> std::io::Result<()> {
-        let mut buf = Vec::with_capacity(1 << 16);
-        match self {
-            Values::F32(a) => {
-                for chunk in a.chunks(1 << 14) {
-                    buf.clear();
-                    buf.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
-                    w.write_all(&buf)?;
-                }
-            }
-            Values::F64(a) => {
-                for chunk in a.chunks(1 << 13) {
-                    buf.clear();
-                    buf.extend(chunk.iter().flat_map(|v| v.to_le_bytes()));
-                    w.write_all(&buf)?;
-                }
-            }
-        }
-        Ok(())
-    }
-}
-
-/// The arrays of a state in file order, with the gases' headers; gridless
-/// velocity grids shared between gases are listed once.
-fn layout(state: &SimulationState) -> Layout<'_> {
-    let mut arrays: Vec<(String, Values)> = Vec::new();
-    for (a, c) in ["u", "v", "w"].iter().enumerate() {
-        arrays.push((
-            format!("velocity.{c}"),
-            Values::F32(state.velocity.slice(a)),
-        ));
-    }
-    if let Some(p) = &state.obstacle_pressure {
-        arrays.push(("obstacle_pressure".into(), Values::F64(p)));
-    }
-    if let Some(p) = &state.face_potential {
-        arrays.push(("face_potential".into(), Values::F32(p)));
-    }
-    let mut grids: Vec<&Arc<FaceGrid>> = Vec::new();
-    let mut gases = Vec::new();
-    for (n, (budget, density)) in state.gases.iter().enumerate() {
-        let mut gas = GasHeader {
-            mode: DensityMode::Gridded,
-            budget_bits: [budget.advection.to_bits(), budget.cleared.to_bits()],
-            steps: vec![],
-            composes_initial: false,
-            restarts: 0,
-            shares_map: false,
-        };
-        match density {
-            DensityState::Gridded(d) => {
-                arrays.push((format!("gas{n}.density"), Values::F32(d.as_slice())))
-            }
-            DensityState::Gridless { history, centres } => {
-                gas.mode = DensityMode::Gridless;
-                for (u, dt, bt) in history {
-                    let k = grids.iter().position(|g| Arc::ptr_eq(g, u));
-                    let k = k.unwrap_or_else(|| {
-                        grids.push(u);
-                        grids.len() - 1
-                    });
-                    gas.steps.push((k, dt.to_bits(), *bt));
-                }
-                arrays.push((format!("gas{n}.centres"), Values::F32(centres.as_slice())));
-            }
-            DensityState::Selma(s) => {
-                gas.mode = DensityMode::Selma;
-                gas.composes_initial = s.composes_initial;
-                gas.restarts = s.restarts;
-                gas.shares_map = s.map.is_none();
-                if let Some(m) = &s.map {
-                    arrays.push((format!("gas{n}.disp"), Values::F32(m.disp.as_slice())));
-                    arrays.push((format!("gas{n}.lattice"), Values::F32(m.lattice.as_slice())));
-                }
-                arrays.push((
-                    format!("gas{n}.reference"),
-                    Values::F32(s.reference.as_slice()),
-                ));
-                arrays.push((format!("gas{n}.centres"), Values::F32(s.centres.as_slice())));
-            }
-        }
-        gases.push(gas);
-    }
-    for (k, g) in grids.iter().enumerate() {
-        for (a, c) in ["u", "v", "w"].iter().enumerate() {
-            arrays.push((format!("history{k}.{c}"), Values::F32(g.slice(a))));
-        }
-    }
-    Layout {
-        gases,
-        arrays,
-        history: grids.len(),
-    }
-}
-
 /// Write `dir/checkpoint.bin` for `sim` as it is now, atomically.
 pub fn write(dir: &Path, sim: &Simulation, run: &RunRecord) -> Result<()> {
     let state = sim.state();
-    let Layout {
-        gases,
-        arrays,
-        history,
-    } = layout(&state);
     let header = Header {
         version: env!("CARGO_PKG_VERSION").into(),
         commit: BUILD_COMMIT.into(),
         run: run.clone(),
         step: state.step_index,
-        gases,
-        history,
-        arrays: arrays.iter().map(|(n, a)| (n.clone(), a.words())).collect(),
+        time: sim.time(),
+        gases: state.gases.iter().map(|(_, d)| GasSummary::of(d)).collect(),
     };
     let json = serde_json::to_vec(&header)?;
     io::write_atomic(&dir.join(FILE), |w| {
-        let mut h = Hashing {
+        // Buffered before the hash: postcard writes an f32 at a time.
+        let hashing = Hashing {
             inner: &mut *w,
             hash: FNV_OFFSET,
         };
+        let mut h = BufWriter::with_capacity(1 << 16, hashing);
         h.write_all(MAGIC)?;
         h.write_all(&FORMAT.to_le_bytes())?;
         h.write_all(&(json.len() as u64).to_le_bytes())?;
         h.write_all(&json)?;
-        for (_, a) in &arrays {
-            a.write_to(&mut h)?;
-        }
-        let hash = h.hash;
+        let h = postcard::to_io(&state, h)?;
+        let hash = h.into_inner().map_err(|e| e.into_error())?.hash;
         w.write_all(&hash.to_le_bytes())?;
         Ok(())
     })
 }
 
-/// A checkpoint read and checked whole (magic, checksum, format, version).
+/// A checkpoint read and checked whole (name, checksum, format, version).
 pub struct Checkpoint {
-    path: PathBuf,
     header: Header,
-    /// The arrays' bytes.
-    data: Vec<u8>,
+    state: SimulationState,
 }
 
 impl Checkpoint {
@@ -314,7 +209,8 @@ impl Checkpoint {
     ///
     /// # Errors
     /// One line naming the problem: no checkpoint, not a checkpoint,
-    /// truncated or corrupt, another format or smokelab version.
+    /// truncated or corrupt, another format (naming it and the one read
+    /// here) or smokelab version.
     pub fn read(dir: &Path) -> Result<Self, InputError> {
         let path = dir.join(FILE);
         let show = path.display();
@@ -327,13 +223,13 @@ impl Checkpoint {
         let bytes = std::fs::read(&path)
             .map_err(|e| InputError::new(format!("cannot read {show}: {e}")))?;
         let corrupt = |why: &str| InputError::new(format!("{show} is {why}; it cannot be resumed"));
-        if bytes.len() < 8 && MAGIC.starts_with(&bytes) {
+        if bytes.len() < MAGIC.len() && MAGIC.starts_with(&bytes) {
             return Err(corrupt("truncated"));
         }
-        if bytes.len() < 8 || &bytes[..8] != MAGIC {
+        if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
             return Err(corrupt("not a smokelab checkpoint"));
         }
-        if bytes.len() < 28 {
+        if bytes.len() < PREAMBLE + 8 {
             return Err(corrupt("truncated"));
         }
         let (body, tail) = bytes.split_at(bytes.len() - 8);
@@ -350,10 +246,10 @@ impl Checkpoint {
                 env!("CARGO_PKG_VERSION")
             )));
         }
-        let len = u64::from_le_bytes(body[12..20].try_into().expect("8 bytes"));
+        let len = u64::from_le_bytes(body[12..PREAMBLE].try_into().expect("8 bytes"));
         let json = usize::try_from(len)
             .ok()
-            .and_then(|l| body.get(20..20usize.checked_add(l)?))
+            .and_then(|l| body.get(PREAMBLE..PREAMBLE.checked_add(l)?))
             .ok_or_else(|| corrupt("corrupt (its header overruns the file)"))?;
         let header: Header =
             serde_json::from_slice(json).map_err(|e| corrupt(&format!("corrupt (header: {e})")))?;
@@ -364,13 +260,16 @@ impl Checkpoint {
                 env!("CARGO_PKG_VERSION")
             )));
         }
-        let data = body[20 + json.len()..].to_vec();
-        let want = (header.arrays.iter())
-            .try_fold(0usize, |sum, (_, n)| sum.checked_add(n.checked_mul(4)?));
-        if want != Some(data.len()) {
-            return Err(corrupt("corrupt (its arrays do not fill the file)"));
+        let state: SimulationState = match postcard::take_from_bytes(&body[PREAMBLE + json.len()..])
+        {
+            Ok((state, [])) => state,
+            Ok(_) => return Err(corrupt("corrupt (bytes after its state)")),
+            Err(e) => return Err(corrupt(&format!("corrupt (state: {e})"))),
+        };
+        if state.step_index != header.step {
+            return Err(corrupt("corrupt (its header and state differ in step)"));
         }
-        Ok(Self { path, header, data })
+        Ok(Self { header, state })
     }
 
     /// The step the checkpoint was taken after.
@@ -388,147 +287,10 @@ impl Checkpoint {
         &self.header.commit
     }
 
-    /// The stored state, shaped after `sim` (a simulation freshly built
-    /// from the recorded configuration), to [`Simulation::restore`].
-    ///
-    /// # Errors
-    /// If the stored arrays do not fit `sim`'s grids, gases or modes.
-    pub fn state_for(&self, sim: &Simulation) -> Result<SimulationState, InputError> {
-        let h = &self.header;
-        let misfit = || {
-            InputError::new(format!(
-                "{} does not fit the simulation its configuration builds (grid sizes, gases or density modes differ)",
-                self.path.display()
-            ))
-        };
-        let template = sim.state();
-        if h.gases.len() != template.gases.len() {
-            return Err(misfit());
-        }
-        // The history grids: zeros on the velocity's domain, filled below.
-        let (domain, kind) = (*sim.domain(), sim.velocity.kind());
-        let grids: Vec<FaceGrid> = (0..h.history)
-            .map(|_| FaceGrid::zeros(domain, kind))
-            .collect();
-        let mut state = SimulationState {
-            step_index: h.step,
-            velocity: template.velocity,
-            gases: vec![],
-            obstacle_pressure: template.obstacle_pressure,
-            face_potential: template.face_potential,
-        };
-        let mut gases = Vec::new();
-        for (g, (_, density)) in h.gases.iter().zip(template.gases) {
-            let budget = MassBudget {
-                advection: f64::from_bits(g.budget_bits[0]),
-                cleared: f64::from_bits(g.budget_bits[1]),
-            };
-            let density = match (g.mode, density) {
-                (DensityMode::Gridded, d @ DensityState::Gridded(_)) => d,
-                (DensityMode::Gridless, DensityState::Gridless { centres, .. }) => {
-                    DensityState::Gridless {
-                        history: vec![],
-                        centres,
-                    }
-                }
-                (DensityMode::Selma, DensityState::Selma(mut s)) => {
-                    s.composes_initial = g.composes_initial;
-                    s.restarts = g.restarts;
-                    let md = *s.reference.domain();
-                    s.map = (!g.shares_map).then(|| MapState {
-                        disp: VectorGrid::zeros(md),
-                        lattice: VectorGrid::zeros(md),
-                    });
-                    DensityState::Selma(s)
-                }
-                _ => return Err(misfit()),
-            };
-            gases.push((budget, density));
-        }
-        state.gases = gases;
-        // Fill every array in file order, checking each length.
-        let mut arrays = Arrays {
-            data: &self.data,
-            at: 0,
-            sizes: h.arrays.iter().map(|(_, n)| *n),
-        };
-        let mut grids = grids;
-        for a in 0..3 {
-            arrays
-                .fill(state.velocity.slice_mut(a))
-                .ok_or_else(misfit)?;
-        }
-        if let Some(p) = &mut state.obstacle_pressure {
-            arrays.fill_f64(p).ok_or_else(misfit)?;
-        }
-        if let Some(p) = &mut state.face_potential {
-            arrays.fill(p).ok_or_else(misfit)?;
-        }
-        for (_, density) in state.gases.iter_mut() {
-            let filled = match density {
-                DensityState::Gridded(d) => arrays.fill(d.as_slice_mut()),
-                DensityState::Gridless { centres, .. } => arrays.fill(centres.as_slice_mut()),
-                DensityState::Selma(s) => match &mut s.map {
-                    Some(m) => arrays
-                        .fill(m.disp.as_slice_mut())
-                        .and_then(|()| arrays.fill(m.lattice.as_slice_mut())),
-                    None => Some(()),
-                }
-                .and_then(|()| arrays.fill(s.reference.as_slice_mut()))
-                .and_then(|()| arrays.fill(s.centres.as_slice_mut())),
-            };
-            filled.ok_or_else(misfit)?;
-        }
-        for g in grids.iter_mut() {
-            for a in 0..3 {
-                arrays.fill(g.slice_mut(a)).ok_or_else(misfit)?;
-            }
-        }
-        if arrays.sizes.next().is_some() {
-            return Err(misfit());
-        }
-        let grids: Vec<Arc<FaceGrid>> = grids.into_iter().map(Arc::new).collect();
-        for ((_, density), g) in state.gases.iter_mut().zip(&h.gases) {
-            if let DensityState::Gridless { history, .. } = density {
-                for &(k, dt, bt) in &g.steps {
-                    let grid = grids.get(k).ok_or_else(misfit)?;
-                    history.push((Arc::clone(grid), f32::from_bits(dt), bt));
-                }
-            }
-        }
-        Ok(state)
-    }
-}
-
-/// The stored arrays, read in file order.
-struct Arrays<'a, I> {
-    data: &'a [u8],
-    at: usize,
-    sizes: I,
-}
-
-impl<I: Iterator<Item = usize>> Arrays<'_, I> {
-    /// Fill `out` with the next array; `None` if it has another length.
-    fn fill(&mut self, out: &mut [f32]) -> Option<()> {
-        let n = self.sizes.next().filter(|&n| n == out.len())?;
-        let bytes = self.data.get(self.at..self.at + 4 * n)?;
-        for (v, b) in out.iter_mut().zip(bytes.chunks_exact(4)) {
-            *v = f32::from_le_bytes(b.try_into().expect("4 bytes"));
-        }
-        self.at += 4 * n;
-        Some(())
-    }
-
-    /// Fill `out` with the next array, f64 as two words each; `None` if it
-    /// has another length.
-    fn fill_f64(&mut self, out: &mut [f64]) -> Option<()> {
-        let n = self.sizes.next().filter(|&n| n == 2 * out.len())?;
-        let bytes = self.data.get(self.at..self.at + 4 * n)?;
-        for (v, b) in out.iter_mut().zip(bytes.chunks_exact(8)) {
-            *v = f64::from_le_bytes(b.try_into().expect("8 bytes"));
-        }
-        self.at += 4 * n;
-        Some(())
+    /// The stored state, to [`Simulation::restore`] into a simulation
+    /// built from the recorded configuration.
+    pub fn into_state(self) -> SimulationState {
+        self.state
     }
 }
 

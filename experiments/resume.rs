@@ -67,11 +67,11 @@ pub(crate) fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
         );
     }
     match checkpoint.run().scenario {
-        ScenarioKind::HotCold => resume_config::<HotColdConfig>(args, dir, &checkpoint),
-        ScenarioKind::SlabBox => resume_config::<SlabBoxConfig>(args, dir, &checkpoint),
-        ScenarioKind::Deformation => resume_config::<DeformationConfig>(args, dir, &checkpoint),
-        ScenarioKind::Zalesak => resume_config::<ZalesakConfig>(args, dir, &checkpoint),
-        ScenarioKind::TaylorGreen => resume_config::<TaylorGreenConfig>(args, dir, &checkpoint),
+        ScenarioKind::HotCold => resume_config::<HotColdConfig>(args, dir, checkpoint),
+        ScenarioKind::SlabBox => resume_config::<SlabBoxConfig>(args, dir, checkpoint),
+        ScenarioKind::Deformation => resume_config::<DeformationConfig>(args, dir, checkpoint),
+        ScenarioKind::Zalesak => resume_config::<ZalesakConfig>(args, dir, checkpoint),
+        ScenarioKind::TaylorGreen => resume_config::<TaylorGreenConfig>(args, dir, checkpoint),
     }
 }
 
@@ -79,9 +79,9 @@ pub(crate) fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
 fn resume_config<C: Scenario>(
     args: &RunArgs,
     dir: &std::path::Path,
-    checkpoint: &Checkpoint,
+    checkpoint: Checkpoint,
 ) -> Result<()> {
-    let record = checkpoint.run();
+    let record = checkpoint.run().clone();
     let step = checkpoint.step();
     let file = dir.join(crate::checkpoint::FILE);
     let recorded: toml::Table = toml::from_str(&record.config).map_err(|e| {
@@ -162,8 +162,12 @@ fn resume_config<C: Scenario>(
     };
     let render = frame_render(&flags, s)?;
     let mut sim = config.build()?;
-    let state = checkpoint.state_for(&sim)?;
-    sim.restore(state)?;
+    sim.restore(checkpoint.into_state()).map_err(|e| {
+        InputError::new(format!(
+            "{} does not fit the simulation its configuration builds: {e}",
+            file.display()
+        ))
+    })?;
     let metrics = crate::checkpoint::metrics_upto(dir, step, &run::metric_columns(&sim))?;
     // Checked: now replace what the killed run wrote after the checkpoint.
     let save_every = s.save_every;
@@ -208,7 +212,7 @@ fn resume_config<C: Scenario>(
         every: record.checkpoint_every,
         record: RunRecord {
             config: toml::to_string(&config).expect("a configuration serializes to TOML"),
-            ..record.clone()
+            ..record
         },
         resumed_from: Some(step),
     };

@@ -624,18 +624,128 @@ impl RunSummary {
     }
 }
 
+/// The steps of a run ([`drive`]), each taken and followed by what the
+/// run writes after it: the measures, the saved frame (`at_saved` after
+/// it), the render, the metrics row and the checkpoint, as `opts` and
+/// `checkpoints` ask; the progress bar and the run's summary follow along.
+struct StepLoop<'a, F> {
+    opts: &'a RunOptions,
+    checkpoints: Option<&'a Checkpointing>,
+    at_saved: F,
+    csv: &'a mut Log,
+    bar: &'a mut crate::progress::Stage,
+    summary: &'a mut RunSummary,
+    /// `run.pvd`, with `--paraview`.
+    pvd: Option<PvdCollection>,
+    probes: FineProbes,
+    /// Whether the CFL warning was given (it is given once).
+    warned_cfl: bool,
+}
+
+impl<F: FnMut(&Simulation, usize) -> Result<()>> StepLoop<'_, F> {
+    /// Take step `frame` of `sim` and write what follows it.
+    fn advance(&mut self, sim: &mut Simulation, frame: usize) -> Result<()> {
+        let opts = self.opts;
+        step(sim, frame, &opts.out)?;
+        let mut times = sim.times;
+        let measuring = frame.is_multiple_of(opts.metrics_every.max(1)) || frame == opts.frames;
+        let saving = opts.save.contains(frame, opts.frames);
+        let render = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames));
+        let checkpoint = (self.checkpoints)
+            .filter(|c| c.every > 0 && (frame.is_multiple_of(c.every) || frame == opts.frames));
+        // A prescribed step leaves gridless and SELMA densities at the
+        // cell centres to be evaluated where they are read (a forced
+        // step has evaluated them: then this is free); the per-step
+        // measures read them with two gases or obstacles.
+        let per_step = sim.gases.len() == 2 || sim.boundary.is_some();
+        if per_step || measuring || saving || render.is_some() || checkpoint.is_some() {
+            timed(&mut times.density, || sim.evaluate_densities());
+        }
+        let measures = timed(&mut times.metrics, || StepMeasures::take(sim));
+        let probes = &mut self.probes;
+        let fine = measuring.then(|| timed(&mut times.metrics, || probes.measure(sim)));
+        if saving {
+            self.save_frame(sim, frame, &mut times.output)?;
+        }
+        if let Some(r) = render {
+            let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
+            self.summary.renders.push(record);
+        }
+        let summary = &mut *self.summary;
+        let row = MetricsRow::measure(
+            sim,
+            frame,
+            &measures,
+            fine.as_ref(),
+            &summary.source_rates,
+            times,
+        );
+        self.csv.push(&row)?;
+        // After the row, so that a checkpoint's metrics rows are all on
+        // disk; after the last step too, so that a complete run resumes
+        // from its last frame (`--resume --frames N`).
+        if let Some(c) = checkpoint {
+            timed(&mut times.output, || {
+                checkpoint::write(&opts.out, sim, &c.record)
+            })?;
+        }
+        summary.stage_seconds += times;
+        summary.final_mirror_error = measures.mirror;
+        summary.final_density_bytes = row.flow.density_bytes;
+        if let Some(f) = fine {
+            summary.final_measures = f.densities;
+        }
+        self.show_progress(frame, &row.step);
+        Ok(())
+    }
+
+    /// Write saved frame `frame` in every format asked for, then call
+    /// `at_saved`; the time counts to `output`.
+    fn save_frame(&mut self, sim: &Simulation, frame: usize, output: &mut f64) -> Result<()> {
+        let opts = self.opts;
+        timed(output, || {
+            write_frame(sim, &opts.out, frame, opts.sample_res)?;
+            let exchange = Exchange {
+                vdb: opts.vdb.as_ref(),
+                pvd: self.pvd.as_mut(),
+            };
+            write_exchange(sim, &opts.out, (frame, opts.save.sequence(frame)), exchange)?;
+            (self.at_saved)(sim, frame)
+        })?;
+        self.summary.saved_frames.push(frame);
+        self.summary.previews.push(preview_path(&opts.out, frame));
+        Ok(())
+    }
+
+    /// Advance the progress bar past `frame`, showing `max|u|`; warn once
+    /// if the CFL number passes [`CFL_WARNING`].
+    fn show_progress(&mut self, frame: usize, row: &StepColumns) {
+        let (cfl, max_u) = (row.cfl, row.max_u);
+        if cfl > CFL_WARNING && !self.warned_cfl {
+            self.warned_cfl = true;
+            self.bar.suspend(|| {
+                eprintln!(
+                    "warning: CFL number {cfl:.3e} at step {frame} (max|u| {max_u:.3e} × dt / cell); \
+                     the flow is not resolved above {CFL_WARNING}: lower --dt or --gravity"
+                )
+            });
+        }
+        self.bar.set_message(format!("max|u| {max_u:.3}"));
+        self.bar.inc(1);
+    }
+}
+
 /// Run `sim` from its current step (`checkpoints`' `resumed_from`, else 0)
-/// to `opts.frames`: the manifest marked running, then per step the measures,
-/// saved frames (`at_saved` after each), renders, metrics row and
-/// checkpoint; at the end the manifest of the complete run, or of the failed
-/// one naming its error.
+/// to `opts.frames`: set up (`metrics.csv`, the progress bar, the manifest
+/// marked running), the steps ([`StepLoop`]), and at the end the manifest
+/// of the complete run, or of the failed one naming its error.
 fn drive<C: Serialize>(
     sim: &mut Simulation,
     opts: &RunOptions,
     config: &C,
     seed: u64,
     checkpoints: Option<&Checkpointing>,
-    mut at_saved: impl FnMut(&Simulation, usize) -> Result<()>,
+    at_saved: impl FnMut(&Simulation, usize) -> Result<()>,
 ) -> Result<RunSummary> {
     let start = Instant::now();
     let resumed_from = checkpoints.and_then(|c| c.resumed_from);
@@ -656,84 +766,20 @@ fn drive<C: Serialize>(
         io::write_npy3(&opts.out.join("obstacle.npy"), b.level().data())?;
     }
     // The steps; an error ends the run with a `failed` manifest naming it.
-    let steps = (|| -> Result<()> {
-        let mut pvd = paraview_collection(opts, sim.params.dt, &summary.saved_frames)?;
-        let mut probes = FineProbes::new(*sim.domain());
-        let every = opts.metrics_every.max(1);
-        let mut warned_cfl = false;
-        for frame in first + 1..=opts.frames {
-            step(sim, frame, &opts.out)?;
-            let mut times = sim.times;
-            let measuring = frame % every == 0 || frame == opts.frames;
-            let saving = opts.save.contains(frame, opts.frames);
-            let render = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames));
-            let checkpoint = checkpoints
-                .filter(|c| c.every > 0 && (frame % c.every == 0 || frame == opts.frames));
-            // A prescribed step leaves gridless and SELMA densities at the
-            // cell centres to be evaluated where they are read (a forced
-            // step has evaluated them: then this is free); the per-step
-            // measures read them with two gases or obstacles.
-            let per_step = sim.gases.len() == 2 || sim.boundary.is_some();
-            if per_step || measuring || saving || render.is_some() || checkpoint.is_some() {
-                timed(&mut times.density, || sim.evaluate_densities());
-            }
-            let measures = timed(&mut times.metrics, || StepMeasures::take(sim));
-            let fine = measuring.then(|| timed(&mut times.metrics, || probes.measure(sim)));
-            if saving {
-                timed(&mut times.output, || {
-                    write_frame(sim, &opts.out, frame, opts.sample_res)?;
-                    let exchange = Exchange {
-                        vdb: opts.vdb.as_ref(),
-                        pvd: pvd.as_mut(),
-                    };
-                    write_exchange(sim, &opts.out, (frame, opts.save.sequence(frame)), exchange)?;
-                    at_saved(sim, frame)
-                })?;
-                summary.saved_frames.push(frame);
-                summary.previews.push(preview_path(&opts.out, frame));
-            }
-            if let Some(r) = render {
-                let record = timed(&mut times.output, || r.render_frame(sim, &opts.out, frame))?;
-                summary.renders.push(record);
-            }
-            let row = MetricsRow::measure(
-                sim,
-                frame,
-                &measures,
-                fine.as_ref(),
-                &summary.source_rates,
-                times,
-            );
-            csv.push(&row)?;
-            // After the row, so that a checkpoint's metrics rows are all on
-            // disk; after the last step too, so that a complete run resumes
-            // from its last frame (`--resume --frames N`).
-            if let Some(c) = checkpoint {
-                timed(&mut times.output, || {
-                    checkpoint::write(&opts.out, sim, &c.record)
-                })?;
-            }
-            summary.stage_seconds += times;
-            summary.final_mirror_error = measures.mirror;
-            summary.final_density_bytes = row.flow.density_bytes;
-            if let Some(f) = fine {
-                summary.final_measures = f.densities;
-            }
-            let (cfl, max_u) = (row.step.cfl, row.step.max_u);
-            if cfl > CFL_WARNING && !warned_cfl {
-                warned_cfl = true;
-                bar.suspend(|| {
-                    eprintln!(
-                        "warning: CFL number {cfl:.3e} at step {frame} (max|u| {max_u:.3e} × dt / cell); \
-                         the flow is not resolved above {CFL_WARNING}: lower --dt or --gravity"
-                    )
-                });
-            }
-            bar.set_message(format!("max|u| {max_u:.3}"));
-            bar.inc(1);
-        }
-        Ok(())
-    })();
+    let steps = paraview_collection(opts, sim.params.dt, &summary.saved_frames).and_then(|pvd| {
+        let mut steps = StepLoop {
+            opts,
+            checkpoints,
+            at_saved,
+            csv: &mut csv,
+            bar: &mut bar,
+            summary: &mut summary,
+            pvd,
+            probes: FineProbes::new(*sim.domain()),
+            warned_cfl: false,
+        };
+        (first + 1..=opts.frames).try_for_each(|frame| steps.advance(sim, frame))
+    });
     if let Err(e) = steps {
         bar.abandon();
         io::write_json(

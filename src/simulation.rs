@@ -32,6 +32,7 @@
 use std::sync::Arc;
 
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 
 use crate::advection::{AdvectionOptions, Advector, Backtrace, CflError};
 use crate::boundary::{Boundary, ObstacleMethod};
@@ -62,7 +63,7 @@ pub const SOURCE_REFINE: usize = 8;
 /// they close the budget, `mass = injected + advection + cleared`, to the
 /// f32 rounding of the additions (`experiments/tests/mass_budget.rs`).
 /// Gridless and SELMA gases are not held on the grid and leave it at zero.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct MassBudget {
     /// Change by advection: semi-Lagrangian resampling is not conservative
     /// (trilinear weights of the departure points need not sum to one per
@@ -137,13 +138,18 @@ impl Gas {
 }
 
 /// The evolving state of a [`Simulation`] ([`Simulation::state`]).
-#[derive(Clone, Debug)]
+///
+/// Serialized (serde) field by field in this order; the gases through
+/// [`crate::density::stored`], which keeps the gridless velocity grids
+/// they share once.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SimulationState {
     /// Steps taken.
     pub step_index: usize,
     /// The velocity on the faces.
     pub velocity: FaceGrid,
     /// Per gas, its mass budget and density state.
+    #[serde(with = "crate::density::stored")]
     pub gases: Vec<(MassBudget, DensityState)>,
     /// The obstacle-aware projection's warm start, the last step's pressure
     /// (exact obstacles only).

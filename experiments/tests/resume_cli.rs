@@ -11,7 +11,7 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use common::{manifest, Sandbox};
+use common::{manifest, reseal, Sandbox};
 use smokelab::density::DensityMode;
 
 /// Every file of `dir` and its bytes.
@@ -229,23 +229,6 @@ fn slab_box_runs_extend_bitwise_with_every_obstacle_method() {
         assert_eq!(manifest(&part)["extra"]["resumed_from"], 8, "{method:?}");
         assert_same_run(&sb.join("full"), &part, 12);
     }
-}
-
-/// FNV-1a 64 of `bytes`, the checkpoint's checksum.
-fn fnv(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ b as u64).wrapping_mul(0x0100_0000_01b3)
-    })
-}
-
-/// `file` with `edit` applied to its body and the checksum recomputed.
-fn reseal(file: &Path, edit: impl FnOnce(&mut Vec<u8>)) {
-    let mut body = std::fs::read(file).unwrap();
-    body.truncate(body.len() - 8);
-    edit(&mut body);
-    let hash = fnv(&body);
-    body.extend(hash.to_le_bytes());
-    std::fs::write(file, body).unwrap();
 }
 
 /// `--resume` of `dir` fails with exit 2 and one line containing `what`,

@@ -34,6 +34,7 @@ pub mod gridless;
 pub mod occupancy;
 pub mod probe;
 pub mod selma;
+pub mod stored;
 
 use std::sync::Arc;
 
@@ -584,7 +585,9 @@ impl DensityModel {
 
 /// The evolving state of a [`DensityModel`] ([`DensityModel::state`]): the
 /// initial density, the source, obstacles and scratch buffers are not in
-/// it — they are rebuilt from the configuration.
+/// it — they are rebuilt from the configuration. A list of them is
+/// serialized through [`stored`], which keeps the gridless velocity grids
+/// the gases share once.
 #[derive(Clone, Debug)]
 pub enum DensityState {
     /// The density grid.

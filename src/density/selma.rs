@@ -119,6 +119,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 
 use super::cell_average::{cell_points, cell_values, sub_points, sub_sum, CellSamples, SUB};
 use super::{BoxWrap, Buffer, DensityMode, StepInput};
@@ -1060,8 +1061,9 @@ fn reanchor_slab(
     }
 }
 
-/// The evolving part of a [`Selma`] density ([`Selma::state`]).
-#[derive(Clone, Debug)]
+/// The evolving part of a [`Selma`] density ([`Selma::state`]); serialized
+/// (serde) field by field, in this order.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SelmaState {
     /// The map and lattice, if this gas owns them (`None`: it shares the
     /// map of the SELMA gas before it).
@@ -1076,8 +1078,8 @@ pub struct SelmaState {
     pub centres: ScalarGrid,
 }
 
-/// The evolving part of a [`SelmaMap`].
-#[derive(Clone, Debug)]
+/// The evolving part of a [`SelmaMap`]; serialized (serde) field by field.
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct MapState {
     /// The map's displacement `D = X − x`.
     pub disp: VectorGrid,

@@ -37,7 +37,8 @@ use std::fmt;
 use glam::Vec3;
 use ndarray::Array3;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::{ScalarGrid, Stencil, VectorGrid, Wrap};
 use crate::domain::Domain;
@@ -321,7 +322,10 @@ fn shape_of(d: [usize; 3]) -> (usize, usize, usize) {
 ///
 /// See the [module documentation](self) for positions, shapes and operators.
 /// As a [`VectorField`] it interpolates each component trilinearly on its own
-/// lattice ([`FaceGrid::sample`]).
+/// lattice ([`FaceGrid::sample`]). Serialized (serde) as the tuple
+/// `(domain, kind, [u, v, w])`, each component a flat sequence of f32 in
+/// `[z][y][x]` order; reading checks the lattice sizes and, in a closed
+/// box, the zero wall faces ([`FaceGrid::from_components`]).
 #[derive(Clone, Debug)]
 pub struct FaceGrid {
     domain: Domain,
@@ -329,6 +333,34 @@ pub struct FaceGrid {
     /// Lattice size `[mx, my, mz]` of each component.
     dims: [[usize; 3]; 3],
     comps: [Array3<f32>; 3],
+}
+
+impl Serialize for FaceGrid {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let comps = [0, 1, 2].map(|a| self.slice(a));
+        (&self.domain, self.kind, comps).serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for FaceGrid {
+    /// # Errors
+    /// If a component's lattice is not [`BoxKind::face_dims`], or a closed
+    /// box's wall face is not zero.
+    fn deserialize<D: Deserializer<'de>>(de: D) -> Result<Self, D::Error> {
+        let (domain, kind, comps): (Domain, BoxKind, [Vec<f32>; 3]) = Deserialize::deserialize(de)?;
+        let shaped = |a: usize, c: Vec<f32>| {
+            let (count, shape) = (c.len(), shape_of(kind.face_dims(&domain, a)));
+            Array3::from_shape_vec(shape, c).map_err(|_| {
+                D::Error::custom(format!(
+                    "velocity component {a} of {count} samples in a {kind} box of {:?} cells",
+                    domain.dims
+                ))
+            })
+        };
+        let [u, v, w] = comps;
+        let comps = [shaped(0, u)?, shaped(1, v)?, shaped(2, w)?];
+        Self::from_components(domain, kind, comps).map_err(D::Error::custom)
+    }
 }
 
 impl FaceGrid {

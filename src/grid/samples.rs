@@ -1,9 +1,15 @@
 //! What every grid shares: samples of f32 on the cell centres of a
 //! [`Domain`], `[z][y][x]` in standard layout, and an out-of-range rule.
+//!
+//! Serialized (serde) as the tuple `(domain, wrap, samples)`, the samples
+//! a flat sequence of f32 in that order; reading checks their count
+//! against the domain.
 
 use glam::Vec3;
 use ndarray::{Array, Dimension};
 use rayon::prelude::*;
+use serde::de::Error as _;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::Wrap;
 use crate::domain::Domain;
@@ -83,6 +89,33 @@ impl<D: Dimension> Grid<D> {
     /// Whether every sample is finite.
     pub fn is_finite(&self) -> bool {
         self.as_slice().par_iter().all(|v| v.is_finite())
+    }
+}
+
+impl<D: Dimension> Serialize for Grid<D> {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        (&self.domain, self.wrap, self.as_slice()).serialize(s)
+    }
+}
+
+impl<'de, D: Dimension> Deserialize<'de> for Grid<D> {
+    /// # Errors
+    /// If the samples are not one per cell (three for a vector grid).
+    fn deserialize<De: Deserializer<'de>>(de: De) -> Result<Self, De::Error> {
+        let (domain, wrap, samples): (Domain, Wrap, Vec<f32>) = Deserialize::deserialize(de)?;
+        // The cell shape `(nz, ny, nx)`, and a vector grid's axis of 3.
+        let (nz, ny, nx) = domain.shape();
+        let mut shape = D::zeros(D::NDIM.unwrap_or(3));
+        let ndim = shape.ndim();
+        shape.slice_mut().copy_from_slice(&[nz, ny, nx, 3][..ndim]);
+        let count = samples.len();
+        let data = Array::from_shape_vec(shape, samples).map_err(|_| {
+            De::Error::custom(format!(
+                "a grid of {count} samples on a domain of {:?} cells",
+                domain.dims
+            ))
+        })?;
+        Ok(Self { domain, wrap, data })
     }
 }
 
