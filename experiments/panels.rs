@@ -67,11 +67,24 @@ fn text_width(text: &str, size: u32) -> Result<u32> {
     Ok(w)
 }
 
+/// The width in pixels of the widest of `texts` drawn `size` pixels high (0
+/// for none).
+///
+/// # Errors
+/// If the font cannot lay a text out.
+fn widest(texts: &[String], size: u32) -> Result<u32> {
+    texts
+        .iter()
+        .try_fold(0, |w, text| Ok(w.max(text_width(text, size)?)))
+}
+
 /// The panels `rows[r][c]` in a grid, `gap` pixels apart, with `labels`
 /// drawn in margins left of the rows and above the columns.
 ///
 /// Rows may differ in length (a missing panel is left blank); each cell is
-/// as large as the largest panel in its row and column.
+/// as large as the largest panel in its row and column. A title wider than
+/// the panels, or a heading wider than its column, wraps at spaces onto more
+/// lines; the figure is wider than the panels only for a title word that is.
 ///
 /// # Errors
 /// If there are no panels, or a label list is neither empty nor as long as
@@ -112,22 +125,25 @@ pub fn grid(rows: &[Vec<RgbImage>], gap: u32, labels: &Labels) -> Result<RgbImag
         .min();
     let size = text_size(side.unwrap_or(0));
     let line = size + size / 2;
-    // Margins: the widest row name as drawn plus half a line either side,
-    // one line for the column headings, one for the title.
-    let widest = labels
-        .rows
-        .iter()
-        .map(|l| text_width(l, size))
-        .collect::<Result<Vec<_>>>()?
-        .into_iter()
-        .max()
-        .unwrap_or(0);
-    let left = if widest > 0 { widest + size } else { 0 };
-    let top =
-        u32::from(!labels.columns.is_empty()) * line + u32::from(!labels.title.is_empty()) * line;
+    // Margins: the widest row name as drawn plus half a line either side;
+    // above the panels, a line per line of the title and of the most
+    // wrapped column heading.
+    let names = widest(labels.rows, size)?;
+    let left = if names > 0 { names + size } else { 0 };
     let panels_width = left + widths.iter().sum::<u32>() + gap * (n_cols as u32 - 1);
-    // A title wider than the panels widens the figure rather than be cut.
-    let width = panels_width.max(text_width(labels.title, size)? + size);
+    // A title wider than the panels wraps onto more lines; only a word wider
+    // than the panels on its own widens the figure rather than be cut.
+    let title = wrap(labels.title, panels_width.saturating_sub(size), size)?;
+    let width = panels_width.max(widest(&title, size)? + size);
+    // Headings wider than their column wrap too, ending above the panels.
+    let headings = labels
+        .columns
+        .iter()
+        .zip(&widths)
+        .map(|(text, &w)| wrap(text, w, size))
+        .collect::<Result<Vec<_>>>()?;
+    let heading_lines = headings.iter().map(Vec::len).max().unwrap_or(0);
+    let top = (title.len() + heading_lines) as u32 * line;
     let height = top + heights.iter().sum::<u32>() + gap * (rows.len() as u32 - 1);
     let mut out = RgbImage::from_pixel(width, height, BACKGROUND);
     let mut y = top;
@@ -141,12 +157,32 @@ pub fn grid(rows: &[Vec<RgbImage>], gap: u32, labels: &Labels) -> Result<RgbImag
     }
     draw_labels(
         &mut out,
-        labels,
+        (&title, &headings, labels.rows),
         (left, top, line, size),
         (&widths, &heights),
         gap,
     )?;
     Ok(out)
+}
+
+/// `text` broken at spaces into lines at most `width` pixels wide as drawn
+/// `size` pixels high (a word wider than that alone on its line); no lines
+/// for no text.
+///
+/// # Errors
+/// If the font cannot lay the text out.
+fn wrap(text: &str, width: u32, size: u32) -> Result<Vec<String>> {
+    let mut lines: Vec<String> = vec![];
+    for word in text.split_whitespace() {
+        match lines.last_mut() {
+            Some(last) if text_width(&format!("{last} {word}"), size)? <= width => {
+                last.push(' ');
+                last.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    Ok(lines)
 }
 
 /// The caption of a [`grid`] labelled `labels`: its title, then what its
@@ -240,10 +276,11 @@ pub fn save_row(
 }
 
 /// The labels of [`grid`] written into `out`, whose panel area starts at
-/// `(left, top)`.
+/// `(left, top)`: the title's lines, each column heading's lines and the
+/// row names.
 fn draw_labels(
     out: &mut RgbImage,
-    labels: &Labels,
+    (title, headings, rows): (&[String], &[Vec<String>], &[String]),
     (left, top, line, size): (u32, u32, u32, u32),
     (widths, heights): (&[u32], &[u32]),
     gap: u32,
@@ -258,21 +295,24 @@ fn draw_labels(
             .pos(Pos::new(h, v))
     };
     let err = |e| anyhow!("panels: drawing a label: {e:?}");
-    if !labels.title.is_empty() {
+    for (i, text) in title.iter().enumerate() {
         let style = font(HPos::Center, VPos::Center);
-        root.draw_text(labels.title, &style, ((w / 2) as i32, (line / 2) as i32))
+        let y = i as u32 * line + line / 2;
+        root.draw_text(text, &style, ((w / 2) as i32, y as i32))
             .map_err(err)?;
     }
     let mut x = left;
-    for (text, &cw) in labels.columns.iter().zip(widths) {
+    for (lines, &cw) in headings.iter().zip(widths) {
         let style = font(HPos::Center, VPos::Center);
-        let y = top - line / 2;
-        root.draw_text(text, &style, ((x + cw / 2) as i32, y as i32))
-            .map_err(err)?;
+        for (i, text) in lines.iter().enumerate() {
+            let y = top - (lines.len() - i) as u32 * line + line / 2;
+            root.draw_text(text, &style, ((x + cw / 2) as i32, y as i32))
+                .map_err(err)?;
+        }
         x += cw + gap;
     }
     let mut y = top;
-    for (text, &rh) in labels.rows.iter().zip(heights) {
+    for (text, &rh) in rows.iter().zip(heights) {
         let style = font(HPos::Right, VPos::Center);
         root.draw_text(
             text,
@@ -409,23 +449,69 @@ mod tests {
         assert!(first <= 28, "long label ink starts at {first}");
     }
 
+    /// A title wider than the panels wraps onto lines above them and the
+    /// figure keeps the panels' width, every line inked and none cut; a
+    /// single word wider than the panels widens the figure instead. A
+    /// heading wider than its column wraps within the column, its last line
+    /// level with the other headings, just above the panels.
     #[test]
-    fn a_title_wider_than_the_panels_widens_the_figure() {
-        let rows = vec![vec![panel(40, 40, 0)]];
-        let title = "a title far longer than one small panel is wide";
-        let labels = Labels {
-            title,
-            rows: &[],
-            columns: &[],
+    fn too_wide_titles_and_headings_wrap_onto_lines() {
+        let rows = vec![vec![panel(200, 100, 0)]];
+        let figure = |title| {
+            let labels = Labels {
+                title,
+                rows: &[],
+                columns: &[],
+            };
+            grid(&rows, 0, &labels).unwrap()
         };
-        let img = grid(&rows, 0, &labels).unwrap();
-        let size = text_size(40);
-        assert_eq!(img.width(), text_width(title, size).unwrap() + size);
-        let (first, last) = ink_columns(&img, (0, 0, img.width(), size + size / 2));
+        let title = "a title far longer than one panel of the figure is wide";
+        let size = text_size(100);
+        let line = size + size / 2;
+        assert!(text_width(title, size).unwrap() > 200);
+        let img = figure(title);
+        assert_eq!(img.width(), 200);
+        let top = img.height() - 100;
+        assert!(
+            top.is_multiple_of(line) && top / line >= 2,
+            "title margin {top} px for lines of {line} px"
+        );
+        for i in 0..top / line {
+            let band = (0, i * line, 200, (i + 1) * line);
+            let (first, last) = ink_columns(&img, band);
+            assert!(
+                first > 0 && last < 199,
+                "title line {i} cut: {first}–{last}"
+            );
+        }
+        assert_eq!(*img.get_pixel(100, top), Rgb([0, 0, 0]), "panel moved");
+        let word = "an_unbreakable_title_word_wider_than_the_panel";
+        let img = figure(word);
+        assert_eq!(img.width(), text_width(word, size).unwrap() + size);
+        assert_eq!(img.height(), line + 100);
+        let (first, last) = ink_columns(&img, (0, 0, img.width(), line));
         assert!(
             first > 0 && last < img.width() - 1,
             "title cut: {first}–{last}"
         );
+        let rows = vec![vec![panel(100, 100, 0), panel(100, 100, 0)]];
+        let heads = ["frame 12, t = 6.00 s · fixed step".to_string(), "b".into()];
+        let labels = Labels {
+            title: "",
+            rows: &[],
+            columns: &heads,
+        };
+        let img = grid(&rows, 4, &labels).unwrap();
+        assert_eq!(img.width(), 204);
+        let top = img.height() - 100;
+        assert!(
+            top.is_multiple_of(line) && top / line >= 2,
+            "heading margin {top} px"
+        );
+        let (first, last) = ink_columns(&img, (0, 0, 104, top));
+        assert!(first > 0 && last < 100, "long heading at {first}–{last}");
+        assert_eq!(inked(&img, (100, 0, 204, top - line)), 0);
+        assert!(inked(&img, (104, top - line, 204, top)) > 5, "heading b");
     }
 
     #[test]

@@ -26,8 +26,10 @@ use std::sync::Once;
 use anyhow::{anyhow, bail, Result};
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::Shift;
+use plotters::element::{DashedPathElement, Drawable, PointCollection};
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
+use plotters_backend::{BackendCoord, DrawingErrorKind};
 
 use smokelab::io::write_atomic;
 
@@ -376,19 +378,18 @@ impl Plot {
         let mut legend = false;
         for (i, s) in self.series.iter().enumerate() {
             let color = s.color.unwrap_or(PALETTE[i % PALETTE.len()]);
-            let line = color.stroke_width(2);
+            let line = color.stroke_width(LINE_WIDTH);
             let pts = self.drawable(s);
+            let marker = |p| Circle::new(p, MARKER_RADIUS, color.filled());
             let anno = match s.style {
                 Style::Line => chart.draw_series(LineSeries::new(pts, line)),
-                Style::Dashed => chart.draw_series(DashedLineSeries::new(pts, 8, 5, line)),
-                Style::Markers => {
-                    chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 4, color.filled())))
-                }
+                Style::Dashed => chart.draw_series(DashedLineSeries::new(pts, DASH, GAP, line)),
+                Style::Markers => chart.draw_series(pts.into_iter().map(marker)),
                 Style::LineMarkers => {
                     chart
                         .draw_series(LineSeries::new(pts.clone(), line))
                         .map_err(err)?;
-                    chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 4, color.filled())))
+                    chart.draw_series(pts.into_iter().map(marker))
                 }
             }
             .map_err(err)?;
@@ -396,11 +397,7 @@ impl Plot {
                 legend = true;
                 let style = s.style;
                 anno.label(s.name.as_str())
-                    .legend(move |(x, y)| match style {
-                        Style::Markers => Circle::new((x + 12, y), 4, color.filled()).into_dyn(),
-                        _ => PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(2))
-                            .into_dyn(),
-                    });
+                    .legend(move |at| LegendGlyph { style, color, at });
             }
         }
         if legend {
@@ -433,6 +430,69 @@ impl Plot {
             .map_err(err)?;
         }
         Ok(())
+    }
+}
+
+/// Width in pixels of the series' lines.
+const LINE_WIDTH: u32 = 2;
+/// Radius in pixels of the series' point markers.
+const MARKER_RADIUS: i32 = 4;
+/// Length in pixels of a dash of a [`Style::Dashed`] line.
+const DASH: i32 = 8;
+/// Gap in pixels between two dashes of a [`Style::Dashed`] line.
+const GAP: i32 = 5;
+/// Width in pixels of a legend entry's sample of its series (plotters
+/// leaves 30 px for it, the text starting 6 px after the sample).
+const GLYPH: i32 = 24;
+
+/// The legend entry of a series drawn in `style` and `color`: a [`GLYPH`]-wide
+/// sample starting at `at` (its left end, on the label's middle line), drawn
+/// as the series is drawn — a solid line, a dashed line with the series'
+/// dash pattern (two dashes and a gap), a marker, or a line through a marker.
+///
+/// An element of its own rather than a sum of plotters' elements: a legend
+/// entry must be an element that outlives the backend, which a sum (generic
+/// over the backend) is not.
+struct LegendGlyph {
+    style: Style,
+    color: RGBColor,
+    at: BackendCoord,
+}
+
+impl<'a> PointCollection<'a, BackendCoord> for &'a LegendGlyph {
+    type Point = &'a BackendCoord;
+    type IntoIter = std::iter::Once<&'a BackendCoord>;
+    fn point_iter(self) -> Self::IntoIter {
+        std::iter::once(&self.at)
+    }
+}
+
+impl<DB: DrawingBackend> Drawable<DB> for LegendGlyph {
+    fn draw<I: Iterator<Item = BackendCoord>>(
+        &self,
+        mut at: I,
+        backend: &mut DB,
+        dim: (u32, u32),
+    ) -> Result<(), DrawingErrorKind<DB::ErrorType>> {
+        let Some((x, y)) = at.next() else {
+            return Ok(());
+        };
+        let line = self.color.stroke_width(LINE_WIDTH);
+        let span = [(x, y), (x + GLYPH, y)];
+        let centre = (x + GLYPH / 2, y);
+        let marker = Circle::new(centre, MARKER_RADIUS, self.color.filled());
+        match self.style {
+            Style::Line => PathElement::new(span, line).draw(span.into_iter(), backend, dim),
+            Style::Dashed => {
+                let dashes = DashedPathElement::new(span, DASH, GAP, line);
+                dashes.draw(span.into_iter(), backend, dim)
+            }
+            Style::Markers => marker.draw(std::iter::once(centre), backend, dim),
+            Style::LineMarkers => {
+                PathElement::new(span, line).draw(span.into_iter(), backend, dim)?;
+                marker.draw(std::iter::once(centre), backend, dim)
+            }
+        }
     }
 }
 
@@ -561,6 +621,76 @@ mod tests {
             let text = std::fs::read_to_string(&svg).unwrap();
             assert!(text.contains("slope 2.00") && text.contains("<svg"));
         }
+    }
+
+    /// Each legend entry is drawn in its series' style: the dashed series'
+    /// sample has a gap between two dashes on its middle row, the marked
+    /// series' sample has ink above and below its line (the marker). Drawn
+    /// as plain solid lines, as before, both entries fail.
+    #[test]
+    fn legend_entries_show_dashes_and_markers() {
+        const DASHED: RGBColor = RGBColor(255, 0, 0);
+        const MARKED: RGBColor = RGBColor(0, 0, 255);
+        // The data stay in the lower left, the legend in the upper right.
+        let low: Vec<(f64, f64)> = (0..=4).map(|i| (f64::from(i), 1.0)).collect();
+        let plot = Plot {
+            size: (400, 300),
+            ..Plot::new("legend", "x", "y")
+        }
+        .x_range(0.0, 10.0)
+        .y_range(0.0, 10.0)
+        .series(
+            Series::line("dashed", low.clone())
+                .styled(Style::Dashed)
+                .colored(DASHED),
+        )
+        .series(
+            Series::line("marked", low)
+                .styled(Style::LineMarkers)
+                .colored(MARKED),
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let png = dir.path().join("legend.png");
+        plot.write_png(&png).unwrap();
+        let img = image::open(&png).unwrap().to_rgb8();
+        let (w, h) = img.dimensions();
+        // The rows of the upper-right quarter with pixels in `c`, and their columns.
+        let ink = |c: RGBColor| -> Vec<(u32, Vec<u32>)> {
+            (0..h / 2)
+                .map(|y| {
+                    let xs = (w / 2..w)
+                        .filter(|&x| img.get_pixel(x, y).0 == [c.0, c.1, c.2])
+                        .collect::<Vec<_>>();
+                    (y, xs)
+                })
+                .filter(|(_, xs)| !xs.is_empty())
+                .collect()
+        };
+        // The glyph's row: the one with the most ink.
+        let glyph_row = |rows: &[(u32, Vec<u32>)]| -> (u32, Vec<u32>) {
+            let row = rows.iter().max_by_key(|(_, xs)| xs.len());
+            row.expect("no legend entry in the upper right").clone()
+        };
+        let (y, xs) = glyph_row(&ink(DASHED));
+        let gap = xs.windows(2).find(|p| p[1] > p[0] + 1);
+        let Some(&[left, right]) = gap else {
+            panic!("dashed legend entry solid on row {y}: {xs:?}");
+        };
+        let between = img.get_pixel((left + right) / 2, y).0;
+        assert!(
+            right - left > GAP as u32 / 2 && between.iter().all(|&c| c > 200),
+            "dashed legend entry, row {y}: {left}–{right} holds {between:?}"
+        );
+        let rows = ink(MARKED);
+        let (y, _) = glyph_row(&rows);
+        let reach = MARKER_RADIUS as u32 - 1;
+        let above = rows.iter().any(|(r, _)| r + reach <= y);
+        let below = rows.iter().any(|(r, _)| *r >= y + reach);
+        assert!(
+            above && below,
+            "marked legend entry has no marker around row {y}: rows {:?}",
+            rows.iter().map(|(r, _)| r).collect::<Vec<_>>()
+        );
     }
 
     /// The decade below the first power of ten is labelled (06-5's wall
