@@ -39,22 +39,22 @@ fn dominant_colours(png: &Path) -> [(usize, f64); 3] {
 fn pictures_show_coloured_rows_and_record_their_holding() {
     let dir = tempfile::tempdir().unwrap();
     // id → (flow cells per axis, gridded frames, gridless frames, SELMA map
-    // cells, march step in cells⁻¹, mass kept, peak kept), the last two as
-    // measured at smoke size (24³: a ball's radius 0.42 is about a cell, so
-    // sampling them at the cell centres gains 17 %, `mass_sampled` 1.1734;
-    // 07-4 … 07-7 in the passing flow at Δt 0.5 per frame, whose resampling
-    // gains mass and loses the peak).
-    // The first panel of each is its own figure.
+    // cells, march step in cells⁻¹). 07-4 … 07-7 move the wall in the
+    // passing flow at 24³ (a ball's radius 0.42 is about a cell), 07-8 and
+    // 08-1 at 16³. The first panel of each is its own figure.
     let cases = [
-        ("07-4", 24.0, 12.0, 0.0, 0.0, 1.0, 1.4144, 0.236),
-        ("07-5", 24.0, 11.0, 1.0, 0.0, 1.0, 1.3788, 0.276),
-        ("07-6", 24.0, 10.0, 2.0, 0.0, 1.0, 1.3514, 0.294),
-        ("07-7", 24.0, 10.0, 2.0, 0.0, 10.0, 1.3514, 0.294),
-        ("07-8", 16.0, 0.0, 6.0, 0.0, 10.0, 0.9212, 1.0),
-        ("08-1", 16.0, 0.0, 0.0, 16.0, 10.0, 1.0101, 1.0),
+        ("07-4", 24.0, 12.0, 0.0, 0.0, 1.0),
+        ("07-5", 24.0, 11.0, 1.0, 0.0, 1.0),
+        ("07-6", 24.0, 10.0, 2.0, 0.0, 1.0),
+        ("07-7", 24.0, 10.0, 2.0, 0.0, 10.0),
+        ("07-8", 16.0, 0.0, 6.0, 0.0, 10.0),
+        ("08-1", 16.0, 0.0, 0.0, 16.0, 10.0),
     ];
+    // Per case its first row's (mass kept, peak kept, mass sampled, mass
+    // advected), for the relations between cases asserted after the loop.
+    let mut kept = std::collections::BTreeMap::new();
     let rows = 6.0;
-    for (id, res, gridded, gridless, map, div, mass_kept, peak_kept) in cases {
+    for (id, res, gridded, gridless, map, div) in cases {
         let cell = 10.0 / res;
         let out = run(dir.path(), id);
         for f in [
@@ -85,29 +85,14 @@ fn pictures_show_coloured_rows_and_record_their_holding() {
         assert_eq!(num(row, "gridless_frames"), gridless, "{id}");
         assert_eq!(num(row, "selma_map_res"), map, "{id}");
         assert!((num(row, "march_step") - cell / div).abs() < 1e-6, "{id}");
-        // Mass and peak kept, each within 0.01 of its measured value.
-        let (mass, peak) = (num(row, "mass_kept"), num(row, "peak_kept"));
-        assert!((mass - mass_kept).abs() < 0.01, "{id}: mass kept {mass}");
-        assert!((peak - peak_kept).abs() < 0.01, "{id}: peak kept {peak}");
-        // The gridded part's mass factors: sampled at the cell centres
-        // (measured 1.1734) and semi-Lagrangian advection (measured
-        // 1.1901 over 12 frames, 1.1647 over 11, 1.1416 over 10).
+        let (sampled, advected) = (num(row, "mass_sampled"), num(row, "mass_advected"));
         if gridded > 0.0 {
-            let sampled = num(row, "mass_sampled");
-            let advected = num(row, "mass_advected");
-            let measured = match gridded as usize {
-                12 => 1.1901,
-                11 => 1.1647,
-                _ => 1.1416,
-            };
-            assert!((sampled - 1.1734).abs() < 0.001, "{id}: sampled {sampled}");
-            assert!(
-                (advected - measured).abs() < 0.001,
-                "{id}: advected {advected}"
-            );
+            assert!(sampled.is_finite() && advected.is_finite(), "{id}");
         } else {
-            assert!(num(row, "mass_sampled").is_nan(), "{id}");
+            assert!(sampled.is_nan() && advected.is_nan(), "{id}");
         }
+        let (mass, peak) = (num(row, "mass_kept"), num(row, "peak_kept"));
+        kept.insert(id, (mass, peak, sampled, advected));
         assert!(num(row, "render_seconds") > 0.0 && num(row, "samples") > 0.0);
         // Memory: the row grids while anything is gridded, plus one
         // velocity grid per gridless frame.
@@ -122,6 +107,41 @@ fn pictures_show_coloured_rows_and_record_their_holding() {
         } else {
             assert!(bytes > 0.0, "{id}");
         }
+    }
+    // What resampling does to the wall, as relations between the cases
+    // (no measured values): the gridded frames are the only ones that
+    // resample, so
+    let k = |id: &str| kept[id];
+    let (m4, p4, s4, a4) = k("07-4");
+    let (m5, p5, s5, a5) = k("07-5");
+    let (m6, p6, s6, a6) = k("07-6");
+    // – every gridded holding samples the same wall on the same cells, and
+    //   balls a cell across gain mass when sampled at the cell centres;
+    assert!(
+        s4 == s5 && s5 == s6 && s4 > 1.0,
+        "mass sampled {s4} {s5} {s6}"
+    );
+    // – semi-Lagrangian resampling in this flow gains mass, and more of it
+    //   the more frames are gridded (12, 11, 10), both in the grid's own
+    //   sum and at 2× sampling;
+    assert!(
+        a4 > a5 && a5 > a6 && a6 > 1.0,
+        "mass advected {a4} {a5} {a6}"
+    );
+    assert!(m4 > m5 && m5 > m6 && m6 > 1.0, "mass kept {m4} {m5} {m6}");
+    // – and loses the peak: the all-gridded wall keeps less than half of
+    //   it, each gridless last frame keeps more;
+    assert!(p4 < 0.5 && p4 < p5 && p5 < p6, "peak kept {p4} {p5} {p6}");
+    // – 07-7 holds the wall as 07-6 does (only the march differs);
+    assert_eq!(k("07-7"), k("07-6"), "07-7 holds the wall as 07-6");
+    // – the gridless walk and SELMA's map never resample the density: they
+    //   keep its peak, and its mass to within 10 % over six frames (their
+    //   backward maps follow the interpolated velocity, which is not
+    //   exactly divergence-free, so mass is not exact either).
+    for id in ["07-8", "08-1"] {
+        let (mass, peak, _, _) = k(id);
+        assert!(peak > 0.9 && peak > p6, "{id}: peak kept {peak}");
+        assert!((mass - 1.0).abs() < 0.1, "{id}: mass kept {mass}");
     }
 }
 
