@@ -33,10 +33,9 @@
 //! the sweeps' vector kernels; a MacCormack step costs about twice SL's,
 //! a BFECC step three times, plus the clamp's re-trace of the faces.
 
-use glam::Vec3;
 use rayon::prelude::*;
 
-use super::semi_lagrangian::{advect_faces, departure_points, interpolate_scalar, Departures};
+use super::semi_lagrangian::{advect_faces, interpolate_scalar, Departures, FaceTraces};
 use super::Backtrace;
 use crate::domain::Domain;
 use crate::grid::{FaceGrid, ScalarGrid, Stencil, Wrap};
@@ -71,6 +70,8 @@ struct Scratch {
     bwd_faces: FaceGrid,
     fwd: ScalarGrid,
     bwd: ScalarGrid,
+    /// The cells' RK2 displacements, for the clamp's face traces.
+    disp: Vec<f32>,
 }
 
 impl Scratch {
@@ -83,6 +84,7 @@ impl Scratch {
             bwd_faces: FaceGrid::zeros(d, kind),
             fwd: ScalarGrid::zeros(d),
             bwd: ScalarGrid::zeros(d),
+            disp: vec![],
         }
     }
 
@@ -148,7 +150,7 @@ impl MacCormack {
             self.correction,
             vel,
             (vel, dt, bt),
-            (&mut s.fwd_faces, &mut s.bwd_faces),
+            (&mut s.fwd_faces, &mut s.bwd_faces, &mut s.disp),
             vel_out,
         );
         let mut samples: usize = (0..3).map(|a| vel_out.slice(a).len()).sum();
@@ -265,15 +267,17 @@ fn step_scalar(
 
 /// One corrected step of the staggered `src` into `dst` through `(vel,
 /// dt, backtrace)`, each component on its own faces, with `(fwd, bwd)` as
-/// scratch: as [`step_scalar`], the departure points of each row of faces
-/// traced again for the clamp ([`departure_points`]) and the range taken
-/// over the corners of the component's own lattice. In a closed box the
-/// wall faces stay zero. Returns the number of reverted faces.
+/// scratch (and `disp` for the cells' RK2 displacements): as
+/// [`step_scalar`], the departure points of each row of faces traced again
+/// for the clamp as the forward step traced them ([`FaceTraces`]) and the
+/// range taken over the corners of the component's own lattice. In a
+/// closed box the wall faces stay zero. Returns the number of reverted
+/// faces.
 fn step_faces(
     correction: Correction,
     src: &FaceGrid,
     (vel, dt, backtrace): (&FaceGrid, f32, Backtrace),
-    (fwd, bwd): (&mut FaceGrid, &mut FaceGrid),
+    (fwd, bwd, disp): (&mut FaceGrid, &mut FaceGrid, &mut Vec<f32>),
     dst: &mut FaceGrid,
 ) -> usize {
     for g in [src, &*fwd, &*bwd, &*dst] {
@@ -300,7 +304,7 @@ fn step_faces(
             advect_faces(bwd, vel, dt, backtrace, dst);
         }
     }
-    let dt_cells = dt / vel.domain().cell;
+    let traces = FaceTraces::new(vel, (dt, backtrace), disp);
     let wrap: Wrap = vel.kind().wrap();
     let mut reverted = 0;
     for a in 0..3 {
@@ -311,16 +315,10 @@ fn step_faces(
             .par_chunks_mut(dims[0])
             .enumerate()
             .map_init(
-                || Vec::with_capacity(dims[0]),
-                |row: &mut Vec<Vec3>, (r, out)| {
+                || (Vec::with_capacity(dims[0]), [vec![], vec![], vec![]]),
+                |(row, mean), (r, out)| {
                     let (j, k) = (r % dims[1], r / dims[1]);
-                    row.clear();
-                    row.extend((0..dims[0]).map(|i| {
-                        let mut g = Vec3::new(i as f32, j as f32, k as f32);
-                        g[a] -= 0.5;
-                        g
-                    }));
-                    departure_points(vel, row, dt_cells, backtrace);
+                    traces.row(a, (j, k), row, mean);
                     let at = r * dims[0];
                     let mut reverted = 0;
                     for (i, (o, &p)) in out.iter_mut().zip(row.iter()).enumerate() {
@@ -407,7 +405,7 @@ pub fn corrected_faces(
         correction,
         src,
         (vel, dt, backtrace),
-        (&mut fwd, &mut bwd),
+        (&mut fwd, &mut bwd, &mut vec![]),
         dst,
     );
 }
@@ -430,6 +428,7 @@ mod tests {
     use crate::advection::{advect_scalar, departure_point};
     use crate::field::VectorField;
     use crate::grid::BoxKind;
+    use glam::Vec3;
 
     struct Swirl;
     impl VectorField for Swirl {

@@ -46,7 +46,13 @@ pub use semi_lagrangian::{
 pub enum Backtrace {
     /// One Euler step, `x − Δt u(x)`: first order in Δt.
     Euler,
-    /// Midpoint rule, `x − Δt u(x − ½Δt u(x))`: second order in Δt.
+    /// Midpoint rule, `x − d(x)` with `d(x) = Δt u(x − ½Δt u(x))`: second
+    /// order in Δt. At the cell centres (the densities, the gridless and
+    /// SELMA walks, any point) exactly that; the velocity's own faces, in
+    /// the grid sweeps, take the mean of the displacements of the two
+    /// cells each face separates, `x_f − ½(d(x_lo) + d(x_hi))` (a wall
+    /// face its one cell's), which differs from `d(x_f)` by O(Δx²): one
+    /// trace per cell shared by the cells and the faces.
     #[default]
     Rk2,
     /// Kutta's third-order rule.

@@ -128,7 +128,7 @@ pub(crate) fn departure(
 ) -> Vec3 {
     match backtrace {
         Backtrace::Euler => c - dt_cells * u0,
-        Backtrace::Rk2 => c - dt_cells * vel.at(c - 0.5 * dt_cells * u0),
+        Backtrace::Rk2 => c - rk2_displacement(vel, c, u0, dt_cells),
         Backtrace::Rk3 => {
             // Kutta's RK3 for dx/dt = −u(x): k1 = −u(x), k2 = −u(x + ½k1),
             // k3 = −u(x − k1 + 2k2), x_d = x + (k1 + 4k2 + k3)/6 (times Δt).
@@ -138,6 +138,15 @@ pub(crate) fn departure(
             c + (k1 + 4.0 * k2 + k3) / 6.0
         }
     }
+}
+
+/// The midpoint rule's displacement, in cells, of the point `c` whose
+/// velocity is `u0`: `Δt u(c − ½Δt u0)`, so that `x_d = c − d`. The RK2
+/// sweep keeps it per cell and traces each face by the mean of its two
+/// cells' ([`Backtrace::Rk2`]).
+#[inline(always)]
+pub(crate) fn rk2_displacement(vel: FaceSampler, c: Vec3, u0: Vec3, dt_cells: f32) -> Vec3 {
+    dt_cells * vel.at(c - 0.5 * dt_cells * u0)
 }
 
 /// `dst(x) = src(x_d)`: interpolate a scalar grid at the departure points.
@@ -377,7 +386,8 @@ impl Isa {
 /// One pass over the z-slabs of `vel`'s domain on `isa`: in each, the
 /// faces of every component (`faces`: the data moved along each
 /// component's own lattice, and where it goes; its wall faces then zeroed)
-/// and the cells of every gas.
+/// and the cells of every gas; with RK2 the faces traced by their cells'
+/// mean displacement ([`kernel::chunk`], [`Backtrace::Rk2`]).
 fn sweep(
     isa: Isa,
     vel: &FaceGrid,
@@ -423,11 +433,98 @@ fn sweep(
         gases: srcs.iter().map(|g| (g.as_slice(), g.wrap())).collect(),
     };
     let row = lattices.iter().map(|l| l[0]).fold(nx, usize::max);
-    out.into_par_iter().for_each_init(
+    // RK2 traces the cells below a chunk's first slab once more: chunks
+    // of several slabs, a few per thread.
+    let chunk = match backtrace {
+        Backtrace::Rk2 => (slabs / (4 * rayon::current_num_threads())).max(4),
+        Backtrace::Euler | Backtrace::Rk3 => 1,
+    };
+    out.par_chunks_mut(chunk).for_each_init(
         || Scratch::new(row),
-        |scratch, mut slab| kernel::slab(isa, &sw, &mut slab, scratch),
+        |scratch, slabs| kernel::chunk(isa, &sw, slabs, scratch),
     );
     dst.zero_walls();
+}
+
+/// The faces' departure points as the sweeps trace them, for passes that
+/// need them again (MacCormack's clamp): RK2's from every cell's
+/// displacement, traced once for the whole grid ([`FaceTraces::new`]);
+/// Euler's and RK3's point by point ([`departure_points`]).
+pub(crate) struct FaceTraces<'a> {
+    vel: Vel<'a>,
+    grid: &'a FaceGrid,
+    dt_cells: f32,
+    backtrace: Backtrace,
+    /// RK2: each z-slab's cells' displacements, three planes (x, y, z).
+    disp: &'a [f32],
+}
+
+impl<'a> FaceTraces<'a> {
+    /// The faces of `vel` traced back over `dt` (world time) by
+    /// `backtrace`; `disp` holds the cells' displacements (RK2), resized
+    /// to fit.
+    pub(crate) fn new(
+        vel: &'a FaceGrid,
+        (dt, backtrace): (f32, Backtrace),
+        disp: &'a mut Vec<f32>,
+    ) -> Self {
+        let (v, dt_cells) = (Vel::new(vel.sampler()), dt / vel.domain().cell);
+        if backtrace == Backtrace::Rk2 {
+            let [nx, ny, nz] = vel.domain().dims;
+            let isa = Isa::selected();
+            disp.resize(3 * nx * ny * nz, 0.0);
+            disp.par_chunks_mut(3 * nx * ny).enumerate().for_each_init(
+                || Scratch::new(nx),
+                |scratch, (k, out)| kernel::displacements(isa, (&v, dt_cells), k, out, scratch),
+            );
+        }
+        Self {
+            vel: v,
+            grid: vel,
+            dt_cells,
+            backtrace,
+            disp,
+        }
+    }
+
+    /// The departure points of the faces of row `(j, k)` of component
+    /// `a`'s lattice into `row` (its length set), in cell-centre grid
+    /// coordinates; `mean`, three rows of scratch.
+    pub(crate) fn row(
+        &self,
+        a: usize,
+        (j, k): (usize, usize),
+        row: &mut Vec<Vec3>,
+        mean: &mut [Vec<f32>; 3],
+    ) {
+        let m = self.vel.dims[a][0];
+        row.clear();
+        row.extend((0..m).map(|i| {
+            let mut g = Vec3::new(i as f32, j as f32, k as f32);
+            g[a] -= 0.5;
+            g
+        }));
+        if self.backtrace != Backtrace::Rk2 {
+            departure_points(self.grid, row, self.dt_cells, self.backtrace);
+            return;
+        }
+        for r in mean.iter_mut() {
+            r.resize(m, 0.0);
+        }
+        let slab = 3 * self.vel.cells[0] * self.vel.cells[1];
+        let at = |k: usize| &self.disp[k * slab..(k + 1) * slab];
+        match a {
+            0 => kernel::face_row_displacements::<0>(&self.vel, j, [at(k), at(k)], mean),
+            1 => kernel::face_row_displacements::<1>(&self.vel, j, [at(k), at(k)], mean),
+            _ => {
+                let [lo, hi] = kernel::face_cells::<2>(&self.vel, [0, j, k]);
+                kernel::face_row_displacements::<2>(&self.vel, j, [at(lo[2]), at(hi[2])], mean)
+            }
+        }
+        for (i, g) in row.iter_mut().enumerate() {
+            *g -= Vec3::new(mean[0][i], mean[1][i], mean[2][i]);
+        }
+    }
 }
 
 /// `data` (a cell-centred grid of `cells`, `wrap`ped) interpolated at the

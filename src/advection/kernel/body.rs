@@ -58,8 +58,9 @@ macro_rules! kernel {
         use crate::advection::Backtrace;
         use crate::grid::Wrap;
         use super::{
-            cell_by_reference, cell_row_velocities, face_by_reference, face_row_velocities,
-            lanes_in, low_lanes, point_by_reference, sample_by_reference, Scratch, SlabOut,
+            cell_by_reference, cell_displacement_by_reference, cell_row_velocities,
+            face_by_reference, face_row_displacements, face_row_velocities, lanes_in, low_lanes,
+            point_by_reference, sample_by_reference, shared_face_by_reference, Scratch, SlabOut,
             Sweep, Vel, EULER, MAX_LANES, RK2, RK3,
         };
 
@@ -231,8 +232,31 @@ macro_rules! kernel {
         /// `c − s·u` per component.
         #[inline(always)]
         fn back(c: [F; 3], u: [F; 3], s: f32) -> [F; 3] {
+            minus3(c, scale(u, s))
+        }
+
+        /// `s·u` per component.
+        #[inline(always)]
+        fn scale(u: [F; 3], s: f32) -> [F; 3] {
             let s = splat(s);
-            [sub(c[0], mul(s, u[0])), sub(c[1], mul(s, u[1])), sub(c[2], mul(s, u[2]))]
+            [mul(s, u[0]), mul(s, u[1]), mul(s, u[2])]
+        }
+
+        /// `c − d` per component.
+        #[inline(always)]
+        fn minus3(c: [F; 3], d: [F; 3]) -> [F; 3] {
+            [sub(c[0], d[0]), sub(c[1], d[1]), sub(c[2], d[2])]
+        }
+
+        /// The midpoint rule's displacements `Δt u(c − ½Δt u0)` of two
+        /// groups of points `c` whose velocities are `u0`
+        /// (`semi_lagrangian::rk2_displacement`'s operations), their
+        /// interpolations interleaved ([`velocity2`]), and the lanes left.
+        #[inline(always)]
+        fn displace2(vel: &Vel, c: [[F; 3]; 2], u0: [[F; 3]; 2], dt: f32) -> [([F; 3], M); 2] {
+            let mid = [back(c[0], u0[0], 0.5 * dt), back(c[1], u0[1], 0.5 * dt)];
+            let [(ua, ba), (ub, bb)] = velocity2(vel, mid);
+            [(scale(ua, dt), ba), (scale(ub, dt), bb)]
         }
 
         /// The departure points of the points `c` whose velocities are
@@ -245,7 +269,7 @@ macro_rules! kernel {
                 EULER => (back(c, u0, dt), none()),
                 RK2 => {
                     let (u1, bad) = velocity(vel, back(c, u0, 0.5 * dt));
-                    (back(c, u1, dt), bad)
+                    (minus3(c, scale(u1, dt)), bad)
                 }
                 _ => {
                     // Kutta's RK3 for dx/dt = −u(x): k1 = −u(x),
@@ -311,9 +335,8 @@ macro_rules! kernel {
         fn trace2<const BT: u8>(vel: &Vel, c: [[F; 3]; 2], u0: [[F; 3]; 2], dt: f32) -> [([F; 3], M); 2] {
             match BT {
                 RK2 => {
-                    let mid = [back(c[0], u0[0], 0.5 * dt), back(c[1], u0[1], 0.5 * dt)];
-                    let [(ua, ba), (ub, bb)] = velocity2(vel, mid);
-                    [(back(c[0], ua, dt), ba), (back(c[1], ub, dt), bb)]
+                    let [(da, ba), (db, bb)] = displace2(vel, c, u0, dt);
+                    [(minus3(c[0], da), ba), (minus3(c[1], db), bb)]
                 }
                 _ => [trace::<BT>(vel, c[0], u0[0], dt), trace::<BT>(vel, c[1], u0[1], dt)],
             }
@@ -418,12 +441,22 @@ macro_rules! kernel {
         /// backtrace `BT`: per row the start velocities
         /// ([`cell_row_velocities`]), then `W` cells at a time traced once
         /// and every gas interpolated through one stencil (one per wrap).
+        /// With `disp` (RK2 only), each cell's displacement `d` (the
+        /// departure point is `c − d`) into it too: three planes, x, y, z,
+        /// of the slab's cells.
         #[inline(never)]
         $(#[$tf])*
-        fn cells<const BT: u8>(sw: &Sweep, k: usize, outs: &mut [&mut [f32]], scratch: &mut Scratch) {
+        fn cells<const BT: u8>(
+            sw: &Sweep,
+            k: usize,
+            outs: &mut [&mut [f32]],
+            mut disp: Option<&mut [f32]>,
+            scratch: &mut Scratch,
+        ) {
             let vel = &sw.vel;
             let [nx, ny, _] = vel.cells;
-            let first = sw.gases[0].1;
+            let nxy = nx * ny;
+            let first = sw.gases.first().map_or(vel.wrap, |g| g.1);
             for j in 0..ny {
                 cell_row_velocities(vel, (j, k), &mut scratch.u0);
                 let u0 = &scratch.u0;
@@ -433,14 +466,35 @@ macro_rules! kernel {
                     let two = PAIRS && i + W < nx;
                     let n = [W.min(nx - i), if two { (nx - i - W).min(W) } else { 0 }];
                     let c = [row_points(i, j, k, None), row_points(i + W, j, k, None)];
-                    let [(ga, bad_a), (gb, bad_b)] = match two {
-                        true => trace2::<BT>(vel, c, [load3(u0, i), load3(u0, i + W)], sw.dt),
-                        false => [trace::<BT>(vel, c[0], load3(u0, i), sw.dt), (c[1], none())],
+                    let u = [load3(u0, i), load3(u0, i + W)];
+                    let [(ga, bad_a), (gb, bad_b)] = match disp.as_deref_mut() {
+                        Some(disp) => {
+                            let [(da, bad_a), (db, bad_b)] = match two {
+                                true => displace2(vel, c, u, sw.dt),
+                                false => {
+                                    let (u1, bad) = velocity(vel, back(c[0], u[0], 0.5 * sw.dt));
+                                    [(scale(u1, sw.dt), bad), (c[1], none())]
+                                }
+                            };
+                            for a in 0..3 {
+                                let at = a * nxy + j * nx + i;
+                                store_part(&mut disp[at..], da[a], n[0]);
+                                if two {
+                                    store_part(&mut disp[at + W..], db[a], n[1]);
+                                }
+                            }
+                            [(minus3(c[0], da), bad_a), (minus3(c[1], db), bad_b)]
+                        }
+                        None => match two {
+                            true => trace2::<BT>(vel, c, u, sw.dt),
+                            false => [trace::<BT>(vel, c[0], u[0], sw.dt), (c[1], none())],
+                        },
                     };
                     // One stencil per group for every gas of the first's
                     // wrap (the gases of a box share it).
                     let mut left = [bits(bad_a), bits(bad_b)];
-                    if two {
+                    let sample = !sw.gases.is_empty();
+                    if sample && two {
                         let (sa, sb) = (stencil(vel.cells, first, ga), stencil(vel.cells, first, gb));
                         left = [left[0] | bits(sa.bad), left[1] | bits(sb.bad)];
                         for ((data, wrap), out) in sw.gases.iter().zip(outs.iter_mut()) {
@@ -456,7 +510,7 @@ macro_rules! kernel {
                             store_part(&mut out[j * nx + i..], va, n[0]);
                             store_part(&mut out[j * nx + i + W..], vb, n[1]);
                         }
-                    } else {
+                    } else if sample {
                         let sa = stencil(vel.cells, first, ga);
                         left[0] |= bits(sa.bad);
                         for ((data, wrap), out) in sw.gases.iter().zip(outs.iter_mut()) {
@@ -474,7 +528,16 @@ macro_rules! kernel {
                     for (g, (left, n)) in left.into_iter().zip(n).enumerate() {
                         for l in lanes_in(left & low_lanes(n)) {
                             let c = [i + g * W + l, j, k];
-                            let p = cell_by_reference(vel, (sw.dt, sw.backtrace), c);
+                            let p = match disp.as_deref_mut() {
+                                Some(disp) => {
+                                    let d = cell_displacement_by_reference(vel, sw.dt, c);
+                                    for a in 0..3 {
+                                        disp[a * nxy + j * nx + c[0]] = d[a];
+                                    }
+                                    Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) - d
+                                }
+                                None => cell_by_reference(vel, (sw.dt, sw.backtrace), c),
+                            };
                             for ((data, wrap), out) in sw.gases.iter().zip(outs.iter_mut()) {
                                 out[j * nx + c[0]] = sample_by_reference(data, (vel.cells, *wrap), p);
                             }
@@ -485,7 +548,98 @@ macro_rules! kernel {
             }
         }
 
-        /// [`super::slab`] with backtrace `BT`.
+        /// The faces of component `A` in slab `k` of its lattice into `out`
+        /// (the slab) by the RK2 sweep ([`super::chunk`]): per row the
+        /// faces' mean displacements `d̄` ([`face_row_displacements`] of the
+        /// cells' in `slabs`, the slabs below and at the faces), then `W`
+        /// faces at a time interpolated on `A`'s lattice at `x_f − d̄`.
+        #[inline(never)]
+        $(#[$tf])*
+        fn shared_faces<const A: usize>(
+            sw: &Sweep,
+            k: usize,
+            out: &mut [f32],
+            slabs: [&[f32]; 2],
+            scratch: &mut Scratch,
+        ) {
+            let (vel, data) = (&sw.vel, sw.faces[A]);
+            let d = vel.dims[A];
+            for (j, row) in out.chunks_exact_mut(d[0]).enumerate().take(d[1]) {
+                face_row_displacements::<A>(vel, j, slabs, &mut scratch.u0);
+                let mean = &scratch.u0;
+                let mut i = 0;
+                while i < d[0] {
+                    // Two groups at a time, as in `faces`.
+                    let two = PAIRS && i + W < d[0];
+                    let n = [W.min(d[0] - i), if two { (d[0] - i - W).min(W) } else { 0 }];
+                    let mut ga = minus3(row_points(i, j, k, Some(A)), load3(mean, i));
+                    ga[A] = add(ga[A], splat(0.5));
+                    let sa = stencil(d, vel.wrap, ga);
+                    let mut left = [bits(sa.bad), 0];
+                    if two {
+                        let mut gb = minus3(row_points(i + W, j, k, Some(A)), load3(mean, i + W));
+                        gb[A] = add(gb[A], splat(0.5));
+                        let sb = stencil(d, vel.wrap, gb);
+                        let (va, vb) = (apply(sa, data), apply(sb, data));
+                        store_part(&mut row[i..], va, n[0]);
+                        store_part(&mut row[i + W..], vb, n[1]);
+                        left[1] = bits(sb.bad);
+                    } else {
+                        store_part(&mut row[i..], apply(sa, data), n[0]);
+                    }
+                    for (g, (left, n)) in left.into_iter().zip(n).enumerate() {
+                        for l in lanes_in(left & low_lanes(n)) {
+                            let f = i + g * W + l;
+                            let m = Vec3::new(mean[0][f], mean[1][f], mean[2][f]);
+                            row[f] = shared_face_by_reference::<A>(vel, data, [f, j, k], m);
+                        }
+                    }
+                    i += if two { 2 * W } else { W };
+                }
+            }
+        }
+
+        /// [`super::chunk`] with backtrace RK2: per slab the cells (gases
+        /// and displacements), then the faces from the displacements of the
+        /// slab and the one below.
+        #[inline(never)]
+        $(#[$tf])*
+        fn shared_chunk(sw: &Sweep, outs: &mut [SlabOut], scratch: &mut Scratch) {
+            let Some(k0) = outs.first().map(|o| o.k) else {
+                return;
+            };
+            let nz = sw.vel.cells[2];
+            let periodic = sw.vel.wrap == Wrap::Periodic;
+            let [mut below, mut at] = std::mem::take(&mut scratch.slabs);
+            // The slab below the first: its cells' displacements only.
+            if k0 > 0 || periodic {
+                let k = if k0 > 0 { k0 - 1 } else { nz - 1 };
+                cells::<RK2>(sw, k, &mut [], Some(&mut at), scratch);
+            }
+            for out in outs {
+                let k = out.k;
+                std::mem::swap(&mut below, &mut at);
+                if k < nz {
+                    cells::<RK2>(sw, k, &mut out.gases, Some(&mut at), scratch);
+                }
+                // A closed box's wall slabs: their one slab of cells.
+                let here: &[f32] = if k < nz { &at } else { &below };
+                let under: &[f32] = if k > 0 || periodic { &below } else { here };
+                let [u, v, w] = &mut out.faces;
+                if let Some(u) = u {
+                    shared_faces::<0>(sw, k, u, [here, here], scratch);
+                }
+                if let Some(v) = v {
+                    shared_faces::<1>(sw, k, v, [here, here], scratch);
+                }
+                if let Some(w) = w {
+                    shared_faces::<2>(sw, k, w, [under, here], scratch);
+                }
+            }
+            scratch.slabs = [below, at];
+        }
+
+        /// One slab of [`super::chunk`] with backtrace `BT` (Euler or RK3).
         #[inline]
         $(#[$tf])*
         fn slab_traced<const BT: u8>(sw: &Sweep, out: &mut SlabOut, scratch: &mut Scratch) {
@@ -501,18 +655,24 @@ macro_rules! kernel {
                 faces::<2, BT>(sw, sw.faces[2], k, w, scratch);
             }
             if !sw.gases.is_empty() && k < sw.vel.cells[2] {
-                cells::<BT>(sw, k, &mut out.gases, scratch);
+                cells::<BT>(sw, k, &mut out.gases, None, scratch);
             }
         }
 
-        /// Slab `out.k` of a sweep (see [`super::slab`]).
+        /// Consecutive slabs of a sweep (see [`super::chunk`]).
         $(#[$tf])*
-        pub(super) fn slab(sw: &Sweep, out: &mut SlabOut, scratch: &mut Scratch) {
+        pub(super) fn chunk(sw: &Sweep, outs: &mut [SlabOut], scratch: &mut Scratch) {
             match sw.backtrace {
-                Backtrace::Euler => slab_traced::<EULER>(sw, out, scratch),
-                Backtrace::Rk2 => slab_traced::<RK2>(sw, out, scratch),
-                Backtrace::Rk3 => slab_traced::<RK3>(sw, out, scratch),
+                Backtrace::Euler => outs.iter_mut().for_each(|o| slab_traced::<EULER>(sw, o, scratch)),
+                Backtrace::Rk2 => shared_chunk(sw, outs, scratch),
+                Backtrace::Rk3 => outs.iter_mut().for_each(|o| slab_traced::<RK3>(sw, o, scratch)),
             }
+        }
+
+        /// See [`super::displacements`].
+        $(#[$tf])*
+        pub(super) fn displacements(sw: &Sweep, k: usize, out: &mut [f32], scratch: &mut Scratch) {
+            cells::<RK2>(sw, k, &mut [], Some(out), scratch);
         }
 
         /// [`super::cell_points`] with backtrace `BT`.

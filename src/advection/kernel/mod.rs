@@ -23,7 +23,7 @@
 
 use glam::Vec3;
 
-use super::semi_lagrangian::departure;
+use super::semi_lagrangian::{departure, rk2_displacement};
 use super::Backtrace;
 use crate::grid::face::FaceSampler;
 use crate::grid::{Stencil, Wrap};
@@ -109,11 +109,15 @@ pub(crate) struct SlabOut<'o> {
     pub(crate) gases: Vec<&'o mut [f32]>,
 }
 
-/// Per-thread rows: start velocities and points, each long enough for a
-/// row of `n` plus two groups of lanes.
+/// Per-thread rows: start velocities (or the faces' mean displacements)
+/// and points, each long enough for a row of `n` plus two groups of
+/// lanes; and, for the RK2 sweep ([`chunk`]), the cells' displacements of
+/// two consecutive z-slabs (each three planes, x, y, z, of the slab's
+/// cells), sized on first use.
 pub(crate) struct Scratch {
     pub(crate) u0: [Vec<f32>; 3],
     pub(crate) points: [Vec<f32>; 3],
+    pub(crate) slabs: [Vec<f32>; 2],
 }
 
 impl Scratch {
@@ -123,6 +127,7 @@ impl Scratch {
         Self {
             u0: [row(), row(), row()],
             points: [row(), row(), row()],
+            slabs: [vec![], vec![]],
         }
     }
 
@@ -179,7 +184,14 @@ mod reference {
         ) {
             let l = vel.dims[A];
             for (n, o) in o.iter_mut().enumerate() {
-                *o = face_by_reference::<A>(vel, t, d, [n % l[0], n / l[0], k]);
+                let f = [n % l[0], n / l[0], k];
+                *o = match t.1 {
+                    Backtrace::Rk2 => {
+                        let mean = face_displacement_by_reference::<A>(vel, t.0, f);
+                        shared_face_by_reference::<A>(vel, d, f, mean)
+                    }
+                    _ => face_by_reference::<A>(vel, t, d, f),
+                };
             }
         }
         if let Some(u) = u {
@@ -203,17 +215,67 @@ mod reference {
     }
 }
 
-/// Slab `out.k` of `sweep`: each component's faces, then the gases'
-/// cells, row by row, `isa`'s lanes at a time.
+/// The consecutive slabs `outs` of `sweep`, row by row, `isa`'s lanes at
+/// a time. Euler and RK3: in each slab each component's faces, then the
+/// gases' cells. RK2: in each slab first the cells — the gases, and each
+/// cell's displacement `d_c = Δt u(x_c − ½Δt u(x_c))` (the midpoint rule)
+/// kept for this slab and the next — then each component's faces, each
+/// traced back by the mean of the displacements of the two cells it
+/// separates ([`face_row_displacements`]); the cells of the slab below
+/// the first are traced once more for its z-faces. The bits do not depend
+/// on how the slabs are chunked.
 ///
 /// # Panics
 /// If an output slab is shorter than its lattice's.
-pub(crate) fn slab(isa: Isa, sweep: &Sweep, out: &mut SlabOut, scratch: &mut Scratch) {
+pub(crate) fn chunk(isa: Isa, sweep: &Sweep, outs: &mut [SlabOut], scratch: &mut Scratch) {
     if !sweep.vel.fits {
-        return reference::slab(sweep, out);
+        for out in outs {
+            reference::slab(sweep, out);
+        }
+        return;
     }
     scratch.fit(sweep.vel.dims.iter().map(|d| d[0]).max().unwrap_or(0));
-    dispatch!(isa, slab(sweep, out, scratch))
+    if sweep.backtrace == Backtrace::Rk2 {
+        let slab = 3 * sweep.vel.cells[0] * sweep.vel.cells[1];
+        for s in &mut scratch.slabs {
+            s.resize(slab, 0.0);
+        }
+    }
+    dispatch!(isa, chunk(sweep, outs, scratch))
+}
+
+/// The RK2 displacements `Δt u(x_c − ½Δt u(x_c))` of the cells of slab
+/// `k` of `vel` over `dt` cells into `out` (three planes, x, y, z, of the
+/// slab's cells): those of the RK2 sweep ([`chunk`]).
+///
+/// # Panics
+/// If `out` is shorter than three planes.
+pub(crate) fn displacements(
+    isa: Isa,
+    (vel, dt): (&Vel, f32),
+    k: usize,
+    out: &mut [f32],
+    scratch: &mut Scratch,
+) {
+    let [nx, ny, _] = vel.cells;
+    if !vel.fits {
+        for n in 0..nx * ny {
+            let d = cell_displacement_by_reference(vel, dt, [n % nx, n / nx, k]);
+            for a in 0..3 {
+                out[a * nx * ny + n] = d[a];
+            }
+        }
+        return;
+    }
+    scratch.fit(nx);
+    let sweep = Sweep {
+        vel: *vel,
+        dt,
+        backtrace: Backtrace::Rk2,
+        faces: [&[]; 3],
+        gases: vec![],
+    };
+    dispatch!(isa, displacements(&sweep, k, out, scratch))
 }
 
 /// The departure points of the cell centres of row `(j, k)` traced back
@@ -421,6 +483,108 @@ pub(crate) fn face_by_reference<const A: usize>(
     c[A] -= 0.5;
     let g = departure(s, c, s.at_face(A, f), dt, backtrace);
     s.component_of(A, data, g)
+}
+
+/// The RK2 sweep's scalar reference for a face the lanes left: `data` on
+/// component `A`'s lattice at `x_f − d̄`, `mean` the face's mean
+/// displacement `d̄` ([`face_row_displacements`]).
+#[inline(never)]
+pub(crate) fn shared_face_by_reference<const A: usize>(
+    vel: &Vel,
+    data: &[f32],
+    f: [usize; 3],
+    mean: Vec3,
+) -> f32 {
+    let mut c = Vec3::new(f[0] as f32, f[1] as f32, f[2] as f32);
+    c[A] -= 0.5;
+    vel.sampler.component_of(A, data, c - mean)
+}
+
+/// The two cells a face of component `A` separates along `A` (`f` in its
+/// lattice): below and above it, the box's wall faces' one inside cell
+/// twice, a periodic box's first face's lower cell the last.
+#[inline(always)]
+pub(crate) fn face_cells<const A: usize>(vel: &Vel, f: [usize; 3]) -> [[usize; 3]; 2] {
+    let n = vel.cells[A];
+    let (mut lo, mut hi) = (f, f);
+    (lo[A], hi[A]) = match vel.wrap {
+        Wrap::Periodic => ((f[A] + n - 1) % n, f[A]),
+        Wrap::Clamped => (f[A].saturating_sub(1), f[A].min(n - 1)),
+    };
+    [lo, hi]
+}
+
+/// The scalar reference of a face's mean displacement: `½(d_lo + d_hi)` of
+/// its two cells' ([`face_cells`], [`cell_displacement_by_reference`]).
+pub(crate) fn face_displacement_by_reference<const A: usize>(
+    vel: &Vel,
+    dt: f32,
+    f: [usize; 3],
+) -> Vec3 {
+    let [lo, hi] = face_cells::<A>(vel, f);
+    let (lo, hi) = (
+        cell_displacement_by_reference(vel, dt, lo),
+        cell_displacement_by_reference(vel, dt, hi),
+    );
+    0.5 * (lo + hi)
+}
+
+/// The scalar reference of a cell's RK2 displacement, in cells:
+/// `Δt u(x_c − ½Δt u(x_c))` (`semi_lagrangian::rk2_displacement`).
+#[inline(never)]
+pub(crate) fn cell_displacement_by_reference(vel: &Vel, dt: f32, c: [usize; 3]) -> Vec3 {
+    let s = vel.sampler;
+    let g = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32);
+    rk2_displacement(s, g, s.at_cell(c), dt)
+}
+
+/// The mean displacements `d̄ = ½(d_lo + d_hi)` of the faces of row `j`
+/// of component `A`'s lattice in one z-slab, into `out[b][0..m_x]`: each
+/// face's two cells' ([`face_cells`]) taken from `below` and `at`, the
+/// cells' displacements (three planes, x, y, z) of the slab below the
+/// faces and of their own (the same slab but for `A = z`). Always inlined,
+/// as [`face_row_velocities`].
+#[inline(always)]
+pub(crate) fn face_row_displacements<'s, const A: usize>(
+    vel: &Vel,
+    j: usize,
+    [below, at]: [&'s [f32]; 2],
+    out: &mut [Vec<f32>; 3],
+) {
+    let [nx, ny, _] = vel.cells;
+    let nxy = nx * ny;
+    let m = vel.dims[A][0];
+    let periodic = vel.wrap == Wrap::Periodic;
+    for (b, out) in out.iter_mut().enumerate() {
+        let plane = |s: &'s [f32], j: usize| -> &'s [f32] {
+            let at = b * nxy + j * nx;
+            &s[at..at + nx]
+        };
+        let out = &mut out[..m];
+        let (lo, hi) = match A {
+            0 => {
+                // Along the row: x = i − 1 and i (wrapped, or the walls'
+                // one cell).
+                let r = plane(at, j);
+                out[0] = 0.5 * (r[if periodic { nx - 1 } else { 0 }] + r[0]);
+                for (o, (l, h)) in out[1..nx].iter_mut().zip(r.iter().zip(&r[1..])) {
+                    *o = 0.5 * (l + h);
+                }
+                if m > nx {
+                    out[nx] = 0.5 * (r[nx - 1] + r[nx - 1]);
+                }
+                continue;
+            }
+            1 => {
+                let [lo, hi] = face_cells::<1>(vel, [0, j, 0]);
+                (plane(at, lo[1]), plane(at, hi[1]))
+            }
+            _ => (plane(below, j), plane(at, j)),
+        };
+        for ((o, l), h) in out.iter_mut().zip(lo).zip(hi) {
+            *o = 0.5 * (l + h);
+        }
+    }
 }
 
 /// The scalar reference for a cell the lanes left: its departure point.
