@@ -600,6 +600,7 @@ pub(crate) fn run_options(
         save: SaveFrames::Every(s.save_every),
         progress: !quiet,
         metrics_every: s.metrics_every,
+        diagnostics_every: s.diagnostics_every,
         sample_res: s.sample_res,
         render,
         vdb,

@@ -279,6 +279,8 @@ pub(crate) fn run_mode(
         save: SaveFrames::List(capture.to_vec()),
         progress: ctx.progress,
         metrics_every: config.solver.metrics_every,
+        // Every step's mirror errors: the experiment's series and maxima.
+        diagnostics_every: 1,
         sample_res: None,
         render: None,
         vdb: None,

@@ -176,6 +176,8 @@ fn run_one(
         save: SaveFrames::List(frames.to_vec()),
         progress: ctx.progress,
         metrics_every: config.solver.metrics_every,
+        // Every step's mirror errors: the experiment's series and maxima.
+        diagnostics_every: 1,
         sample_res: config.solver.sample_res,
         render: Some(render),
         vdb: None,

@@ -191,6 +191,7 @@ fn run(ctx: &Context) -> Result<()> {
             save: SaveFrames::List(saved.clone()),
             progress: ctx.progress,
             metrics_every: config.solver.metrics_every,
+            diagnostics_every: config.solver.diagnostics_every,
             sample_res: None,
             render: None,
             vdb: None,

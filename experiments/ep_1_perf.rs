@@ -22,13 +22,14 @@
 //!   measured as five parallel copies; and the ratio step ÷ floor (issue
 //!   16's target ≤ 2 at 128³);
 //! - **metrics**: what `smokelab run` measures after a step, on the same
-//!   state: the per-step measures (`run::StepMeasures`: velocity mirror and
-//!   max, compact divergence, the gases' mirror) and the fine measures of
-//!   every `metrics_every` steps (`run::FineProbes::measure`: each gas at
-//!   2×, the top-octave share, the interpolant at 4096 points); the
-//!   per-step measures ÷ step and the
-//!   run's metrics at the default cadence (`SolverConfig::metrics_every`,
-//!   100) ÷ step;
+//!   state: the step diagnostics of every `diagnostics_every` steps
+//!   (`run::StepMeasures`: velocity mirror and max, compact divergence, the
+//!   gases' mirror) and the fine measures of every `metrics_every` steps
+//!   (`run::FineProbes::measure`: each gas at 2×, the top-octave share, the
+//!   interpolant at 4096 points); the diagnostics ÷ step (were they taken
+//!   every step) and the run's metrics at the default cadences
+//!   (`SolverConfig::diagnostics_every`, 10, and `metrics_every`, 100) ÷
+//!   step;
 //! - **kernel widths**: the same rounds (RK2 and Euler steps on 2
 //!   threads, their stage times) once per instruction set this CPU has
 //!   (`smokelab::simd::Isa::available`: scalar, AVX2 and AVX-512 here; NEON
@@ -204,6 +205,7 @@ pub fn run_with_peers(ctx: &Context, python: Option<&Path>) -> Result<()> {
         },
         "timed": "Simulation::step only (advect, density, force, project); the run driver's metrics (metrics_ms: run::StepMeasures, fine_metrics_ms: run::FineProbes::measure) are timed apart on the same state, outputs not at all; setup_s (sources' cell averages, plans) is timed apart",
         "default_metrics_every": SolverConfig::default().metrics_every,
+        "default_diagnostics_every": SolverConfig::default().diagnostics_every,
         "pressure_precision": "hot/cold after the warm-up steps and one step's advection and force (u*), periodic and closed, projected by the f32 and the f64 solve: max|D u| Δx / max|u_a| (metrics::velocity_stats); pressure_precision.csv, the third table of table.md",
         "floor": "min(f32 realfft+rustfft pair, the solver's f64 pair) + five f32 array copies (the fused sweep's 5 fields read and written)",
         "peers": match (&peers, &peer_rows) {
@@ -282,16 +284,18 @@ impl Row {
         self.step_1t_ms / self.step_ms
     }
 
-    /// The per-step measures ÷ step.
+    /// The diagnostics ÷ step, were they taken every step.
     fn metrics_share(&self) -> f64 {
         self.metrics_ms / self.step_ms
     }
 
-    /// The run's metrics at the default cadence, per step, ÷ step: the
-    /// per-step measures plus the fine measures every `metrics_every` steps.
+    /// The run's metrics at the default cadences, per step, ÷ step: the
+    /// diagnostics every `diagnostics_every` steps plus the fine measures
+    /// every `metrics_every` steps.
     fn default_metrics_share(&self) -> f64 {
-        let every = SolverConfig::default().metrics_every as f64;
-        (self.metrics_ms + self.fine_ms / every) / self.step_ms
+        let d = SolverConfig::default();
+        let per_step = self.metrics_ms / d.diagnostics_every as f64;
+        (per_step + self.fine_ms / d.metrics_every as f64) / self.step_ms
     }
 }
 
@@ -986,7 +990,7 @@ fn plot(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f6
 /// The Markdown table for the README and the paper.
 fn table(rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f64>) -> String {
     let mut s = String::from(
-        "| res | step ms | Mcells/s | 1 thread ms | speed-up | advect | force | project | floor ms | step ÷ floor | metrics ÷ step | default metrics ÷ step |",
+        "| res | step ms | Mcells/s | 1 thread ms | speed-up | advect | force | project | floor ms | step ÷ floor | diagnostics ÷ step | default metrics ÷ step |",
     );
     if peers.is_some() {
         s.push_str(" Euler step ms | peer ms | peer ÷ Euler step |");

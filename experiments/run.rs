@@ -22,7 +22,9 @@
 //!   centres, positive inside, world units (runs with obstacles);
 //! - `metrics.csv` — one row per step ([`MetricsRow`]), appended and flushed
 //!   as each step ends; the fine measures ([`FineMeasures`]) are computed
-//!   every `metrics_every` steps and at the last, `NaN` in between;
+//!   every `metrics_every` steps and at the last, `NaN` in between, and the
+//!   step diagnostics ([`StepMeasures`]) every `diagnostics_every` steps
+//!   and at the last, `NaN` in between;
 //! - `checkpoint.bin` — with `--checkpoint-every K`: the whole state after
 //!   the latest K-th step and after the last ([`crate::checkpoint`]), for
 //!   `run --resume` (a complete run resumes from its last frame);
@@ -69,6 +71,9 @@ pub struct RunOptions {
     /// Compute the fine measures ([`FineMeasures`]) every this many steps
     /// (and at the last); they are the expensive part of a gridless run.
     pub metrics_every: usize,
+    /// Compute the step diagnostics ([`StepMeasures`]) every this many
+    /// steps (and at the last).
+    pub diagnostics_every: usize,
     /// Also write each gas sampled with this many cells along the longest axis.
     pub sample_res: Option<usize>,
     /// Frames to volume-render, and how (`None`: no renders).
@@ -177,8 +182,8 @@ pub struct Checkpointing {
 /// Fixed random points at which the interpolant's divergence is measured.
 pub const PROBE_POINTS: usize = 4096;
 
-/// The measures taken after every step: one pass over the faces and one
-/// over the two gases' cells.
+/// The step diagnostics, taken every `diagnostics_every` steps: one pass
+/// over the faces and one over the two gases' cells.
 pub struct StepMeasures {
     /// The compact divergence after projection, the velocity's mirror
     /// error and `max |u_a|`.
@@ -252,8 +257,9 @@ pub const CFL_WARNING: f32 = 10.0;
 
 /// One row of `metrics.csv`: its fields, in order, are the columns (nested
 /// parts flattened; [`metric_columns`] names them):
-/// - `step, time, max_u, cfl, div_rms, div_max` (the discrete divergence the
-///   projection zeroes), `div_interp_rms, div_interp_max` (the divergence of
+/// - `step, time`, then the diagnostics `max_u, cfl, div_rms, div_max` (the
+///   discrete divergence the projection zeroes) on their cadence
+///   (`diagnostics_every`, `NaN` between), `div_interp_rms, div_interp_max` (the divergence of
 ///   the velocity's point query at [`PROBE_POINTS`] fixed random points,
 ///   relative to the rms of `|∇u|` there —
 ///   [`metrics::interpolant_divergence`]), `ke_top_octave` (share of the
@@ -273,7 +279,8 @@ pub const CFL_WARNING: f32 = 10.0;
 ///   Nyquist index) — see [`smokelab::density::probe`]; the fine measures
 ///   are `NaN` on steps without them;
 /// - `mirror_error` (two gases; densities at the cell centres),
-///   `vel_mirror_error` ([`metrics::velocity_stats`]), `density_bytes`
+///   `vel_mirror_error` ([`metrics::velocity_stats`]) — diagnostics, on
+///   their cadence — `density_bytes`
 ///   (all gases' representations, shared buffers once), `substeps` (QUICK);
 /// - with obstacles, [`ObstacleColumns`];
 /// - wall seconds per stage, [`StageColumns`].
@@ -396,20 +403,29 @@ pub fn metric_columns(sim: &Simulation) -> Vec<String> {
 }
 
 impl MetricsRow {
-    /// The row of `sim` after step `frame`: the per-step `measures`, the
-    /// `fine` ones on their cadence (`NaN` without), the gases' budgets
+    /// The row of `sim` after step `frame`: the diagnostics `measures` and
+    /// the `fine` measures on their cadences (`NaN` without), the gases' budgets
     /// against their injection `t · rate` (`source_rates`, per gas), the
     /// obstacles' leaks and solves, and the stage times.
     fn measure(
         sim: &Simulation,
         frame: usize,
-        measures: &StepMeasures,
+        measures: Option<&StepMeasures>,
         fine: Option<&FineMeasures>,
         source_rates: &[f64],
         times: StageTimes,
     ) -> Self {
-        let div = measures.velocity.divergence;
-        let vel_mirror = measures.velocity.mirror;
+        let nan = f32::NAN;
+        let (div, vel_mirror) = measures.map_or(
+            (
+                metrics::RmsMax { rms: nan, max: nan },
+                metrics::VelocityMirror {
+                    error: nan,
+                    max_norm: nan,
+                },
+            ),
+            |m| (m.velocity.divergence, m.velocity.mirror),
+        );
         let max_u = vel_mirror.max_norm;
         let t = frame as f64 * sim.params.dt as f64;
         let gases = (sim.gases.iter().zip(source_rates).enumerate())
@@ -431,7 +447,13 @@ impl MetricsRow {
                 ke_top_octave: fine.map_or(f64::NAN, |f| f.ke_top_octave),
             },
             gases,
-            mirror_error: measures.mirror.into_iter().collect(),
+            mirror_error: match measures {
+                Some(m) => m.mirror.into_iter().collect(),
+                None => (sim.gases.len() == 2)
+                    .then_some(f32::NAN)
+                    .into_iter()
+                    .collect(),
+            },
             flow: FlowColumns {
                 vel_mirror_error: vel_mirror.error,
                 density_bytes: sim.density_bytes(),
@@ -648,20 +670,21 @@ impl<F: FnMut(&Simulation, usize) -> Result<()>> StepLoop<'_, F> {
         let opts = self.opts;
         step(sim, frame, &opts.out)?;
         let mut times = sim.times;
-        let measuring = frame.is_multiple_of(opts.metrics_every.max(1)) || frame == opts.frames;
+        let on = |every: usize| frame.is_multiple_of(every.max(1)) || frame == opts.frames;
+        let (measuring, diagnosing) = (on(opts.metrics_every), on(opts.diagnostics_every));
         let saving = opts.save.contains(frame, opts.frames);
         let render = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames));
         let checkpoint = (self.checkpoints)
             .filter(|c| c.every > 0 && (frame.is_multiple_of(c.every) || frame == opts.frames));
         // A prescribed step leaves gridless and SELMA densities at the
         // cell centres to be evaluated where they are read (a forced
-        // step has evaluated them: then this is free); the per-step
-        // measures read them with two gases or obstacles.
-        let per_step = sim.gases.len() == 2 || sim.boundary.is_some();
-        if per_step || measuring || saving || render.is_some() || checkpoint.is_some() {
+        // step has evaluated them: then this is free); the diagnostics
+        // read them with two gases, the obstacles' columns every step.
+        let read = (diagnosing && sim.gases.len() == 2) || sim.boundary.is_some();
+        if read || measuring || saving || render.is_some() || checkpoint.is_some() {
             timed(&mut times.density, || sim.evaluate_densities());
         }
-        let measures = timed(&mut times.metrics, || StepMeasures::take(sim));
+        let measures = diagnosing.then(|| timed(&mut times.metrics, || StepMeasures::take(sim)));
         let probes = &mut self.probes;
         let fine = measuring.then(|| timed(&mut times.metrics, || probes.measure(sim)));
         if saving {
@@ -675,7 +698,7 @@ impl<F: FnMut(&Simulation, usize) -> Result<()>> StepLoop<'_, F> {
         let row = MetricsRow::measure(
             sim,
             frame,
-            &measures,
+            measures.as_ref(),
             fine.as_ref(),
             &summary.source_rates,
             times,
@@ -690,7 +713,9 @@ impl<F: FnMut(&Simulation, usize) -> Result<()>> StepLoop<'_, F> {
             })?;
         }
         summary.stage_seconds += times;
-        summary.final_mirror_error = measures.mirror;
+        if let Some(m) = &measures {
+            summary.final_mirror_error = m.mirror;
+        }
         summary.final_density_bytes = row.flow.density_bytes;
         if let Some(f) = fine {
             summary.final_measures = f.densities;
@@ -717,8 +742,9 @@ impl<F: FnMut(&Simulation, usize) -> Result<()>> StepLoop<'_, F> {
         Ok(())
     }
 
-    /// Advance the progress bar past `frame`, showing `max|u|`; warn once
-    /// if the CFL number passes [`CFL_WARNING`].
+    /// Advance the progress bar past `frame`, showing the last `max|u|`
+    /// measured; warn once if the CFL number passes [`CFL_WARNING`] (both
+    /// on the diagnostics' steps: `NaN` between passes no test).
     fn show_progress(&mut self, frame: usize, row: &StepColumns) {
         let (cfl, max_u) = (row.cfl, row.max_u);
         if cfl > CFL_WARNING && !self.warned_cfl {
@@ -730,7 +756,9 @@ impl<F: FnMut(&Simulation, usize) -> Result<()>> StepLoop<'_, F> {
                 )
             });
         }
-        self.bar.set_message(format!("max|u| {max_u:.3}"));
+        if !max_u.is_nan() {
+            self.bar.set_message(format!("max|u| {max_u:.3}"));
+        }
         self.bar.inc(1);
     }
 }

@@ -146,13 +146,18 @@ fn solver_flags_override_their_keys_and_only_them() {
     std::fs::write(sb.join("c.toml"), file).unwrap();
     let base = printed_config(&sb, &[]);
     assert_eq!(base["res"], Integer(30), "the file's keys are read");
-    let cases: [(&[&str], &str, toml::Value); 8] = [
+    let cases: [(&[&str], &str, toml::Value); 9] = [
         (&["--res", "24"], "res", Integer(24)),
         (&["--seed", "7"], "seed", Integer(7)),
         (&["--dt", "0.025"], "dt", Float(0.025)),
         (&["--advection", "bfecc"], "advection", Text("bfecc".into())),
         (&["--box", "closed"], "box", Text("closed".into())),
         (&["--cell-samples", "8"], "cell_samples", Integer(8)),
+        (
+            &["--diagnostics-every", "1"],
+            "diagnostics_every",
+            Integer(1),
+        ),
         (&["--no-substeps"], "substeps", Boolean(false)),
         (&["--force"], "force", Boolean(true)),
     ];
@@ -492,6 +497,54 @@ fn a_closed_box_run_writes_wall_faces() {
 }
 
 /// A CFL number far beyond any resolved flow gets one warning with the number.
+/// The step diagnostics come on their cadence: with `--diagnostics-every
+/// 3` over 7 steps, rows 3, 6 and 7 (the last) hold exactly what a run
+/// diagnosing every step writes there, the rows between `NaN`; the other
+/// columns (budgets, fine measures) are the same in every row; the
+/// default cadence is 10.
+#[test]
+fn step_diagnostics_come_on_their_cadence() {
+    const DIAGNOSTICS: [&str; 6] = [
+        "max_u",
+        "cfl",
+        "div_rms",
+        "div_max",
+        "mirror_error",
+        "vel_mirror_error",
+    ];
+    let sb = Sandbox::new();
+    let run = |out: &str, every: &str| {
+        let mut args = vec!["run", "hot-cold", "--res", "10", "--frames", "7"];
+        args.extend(["--save-every", "0", "--quiet", "--out", out]);
+        sb.ok(&[&args[..], &["--diagnostics-every", every]].concat());
+        common::table(&sb.join(out).join("metrics.csv"))
+    };
+    let (every, third) = (run("every", "1"), run("third", "3"));
+    assert_eq!((every.len(), third.len()), (7, 7));
+    for (step, (a, b)) in (1..).zip(every.iter().zip(&third)) {
+        for (col, value) in a {
+            if col.starts_with("t_") {
+                continue;
+            }
+            let diagnosed = step % 3 == 0 || step == 7;
+            if DIAGNOSTICS.contains(&col.as_str()) {
+                assert_ne!(value, "NaN", "step {step}, {col}");
+                if !diagnosed {
+                    assert_eq!(b[col], "NaN", "step {step}, {col}");
+                    continue;
+                }
+            }
+            assert_eq!(&b[col], value, "step {step}, {col}");
+        }
+    }
+    for col in DIAGNOSTICS {
+        assert!(every[0].contains_key(col), "{col}");
+    }
+    std::fs::write(sb.join("c.toml"), "").unwrap();
+    let config = printed_config(&sb, &[]);
+    assert_eq!(config["diagnostics_every"], toml::Value::Integer(10));
+}
+
 #[test]
 fn a_huge_cfl_number_is_warned_about() {
     let sb = Sandbox::new();

@@ -57,6 +57,10 @@ fn a_gridless_run_too_big_for_memory_is_refused_with_its_estimate() {
             "metrics_every is 0",
         ),
         (
+            &["run", "hot-cold", "--diagnostics-every", "0"][..],
+            "diagnostics_every is 0",
+        ),
+        (
             &[
                 "run",
                 "hot-cold",

@@ -212,10 +212,18 @@ solver_keys! {
     /// Compute the fine metrics (densities sampled at 2×, spectra, the
     /// interpolant's divergence) every this many steps (≥ 1) and at the last.
     /// Each costs about 1.5 steps at 128³ hot/cold (experiment P-1), so the
-    /// default 100 adds about 1.5 % to a run, and the per-step measures about
-    /// 3 %.
+    /// default 100 adds about 1.5 % to a run.
     metrics_every: usize = 100;
     flag metrics_every: Option<usize> [allow_negative_numbers = true] => given;
+
+    /// Compute the step diagnostics (max|u| and the CFL number, the compact
+    /// divergence, the gases' and the velocity's mirror errors) every this
+    /// many steps (≥ 1) and at the last, `NaN` between; the CFL warning is
+    /// checked on these steps. One pass over the faces and the gases costs
+    /// about 5 % of a 128³ hot/cold step (experiment P-1), so the default 10
+    /// adds about 0.5 %; 1 measures every step.
+    diagnostics_every: usize = 10;
+    flag diagnostics_every: Option<usize> [allow_negative_numbers = true] => given;
 
     /// Arithmetic of the pressure solve's transforms: `f32` (default; after
     /// the projection `max|D u| Δx / max|u|` ≤ 1e-5 up to 256³, growing
@@ -296,6 +304,11 @@ impl SolverConfig {
         if self.metrics_every == 0 {
             return Err(InputError::new(
                 "metrics_every is 0; it must be at least 1 (fine metrics every K steps)",
+            ));
+        }
+        if self.diagnostics_every == 0 {
+            return Err(InputError::new(
+                "diagnostics_every is 0; it must be at least 1 (step diagnostics every K steps)",
             ));
         }
         if let Some(r) = self.sample_res {
