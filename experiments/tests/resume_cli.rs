@@ -204,8 +204,9 @@ fn a_finished_run_extends_bitwise_in_every_mode() {
     }
 }
 
-/// Slab-box runs of 8 frames (saves, fine metrics and checkpoints every 4
-/// steps, so the last frame is one the 12-frame run writes too) continued
+/// Slab-box runs of 8 frames (saves, fine metrics, diagnostics and
+/// checkpoints every 4 steps, so the last frame is one the 12-frame run
+/// measures and writes too) continued
 /// to 12 are the 12-frame runs, bitwise, with every obstacle method: the notes' rule
 /// (semi-Lagrangian), and the exact projection with semi-Lagrangian and
 /// with QUICK (the default), whose solves warm-start from the checkpoint's
@@ -217,7 +218,7 @@ fn slab_box_runs_extend_bitwise_with_every_obstacle_method() {
         let args = |frames: &'static str| {
             let mut a = vec!["run", "slab-box", "--res", "32", "--frames", frames];
             a.extend(["--save-every", "4", "--metrics-every", "4"]);
-            a.extend(["--obstacles", method[0]]);
+            a.extend(["--diagnostics-every", "4", "--obstacles", method[0]]);
             a.extend(["--advection", method[1], "--quiet", "--out"]);
             a
         };

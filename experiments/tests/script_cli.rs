@@ -52,9 +52,12 @@ fn hot_cold_script_reproduces_run_hot_cold() {
         "20",
         "--save-every",
         "20",
-        // The script's cadence of the fine measures.
+        // The script's cadences: the fine measures every 10 steps, the
+        // diagnostics at every record.
         "--metrics-every",
         "10",
+        "--diagnostics-every",
+        "1",
         "--quiet",
         "--out",
         "run",
