@@ -674,8 +674,7 @@ impl<F: FnMut(&Simulation, usize) -> Result<()>> StepLoop<'_, F> {
         let (measuring, diagnosing) = (on(opts.metrics_every), on(opts.diagnostics_every));
         let saving = opts.save.contains(frame, opts.frames);
         let render = opts.render.as_ref().filter(|r| r.wants(frame, opts.frames));
-        let checkpoint = (self.checkpoints)
-            .filter(|c| c.every > 0 && (frame.is_multiple_of(c.every) || frame == opts.frames));
+        let checkpoint = (self.checkpoints).filter(|c| c.every > 0 && on(c.every));
         // A prescribed step leaves gridless and SELMA densities at the
         // cell centres to be evaluated where they are read (a forced
         // step has evaluated them: then this is free); the diagnostics
