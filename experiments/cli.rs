@@ -24,6 +24,7 @@ use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
 use smokelab::scenario::slab_box::SlabBoxConfig;
 use smokelab::scenario::taylor_green::TaylorGreenConfig;
+use smokelab::scenario::taylor_green_3d::TaylorGreen3dConfig;
 use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig, SolverFlags};
 use smokelab::simulation::Simulation;
 
@@ -200,7 +201,10 @@ type Measure = Box<dyn Fn(&Simulation) -> String>;
 /// ([`smokelab::scenario::prescribed::Exact`]: L1 and L∞ return errors at
 /// full periods, mass, volume of ρ > ½, peak); a Taylor–Green run its
 /// velocity ([`smokelab::scenario::taylor_green::TaylorGreen`]: relative L2
-/// and L∞ errors, kinetic energy and the exact energy).
+/// and L∞ errors, kinetic energy and the exact energy). A turbulence
+/// benchmark's run (`taylor-green-3d`) writes `energy.csv` instead: the
+/// kinetic energy and enstrophy per unit volume and the viscous
+/// dissipation `2νΩ` ([`smokelab::metrics::enstrophy`]).
 struct ExactLog {
     measure: Measure,
     path: PathBuf,
@@ -209,25 +213,44 @@ struct ExactLog {
 
 impl ExactLog {
     /// The log of scenario `config` run as `sim` (just built), if it knows
-    /// an exact solution.
+    /// an exact solution or logs its integrals.
     fn of<C: Scenario>(config: &C, sim: &Simulation, out: &std::path::Path) -> Option<Self> {
-        let (header, measure): (_, Measure) = if let Some(exact) = config.exact(sim) {
+        let (file, header, measure): (_, _, Measure) = if let Some(exact) = config.exact(sim) {
             let measure = move |sim: &Simulation| {
                 let m = exact.measure(sim.gases[0].density(), sim.time(), sim.params.dt);
                 format!("{},{},{},{},{}", m.l1, m.linf, m.mass, m.volume, m.peak)
             };
-            ("l1,linf,mass,volume_half,peak", Box::new(measure))
+            (
+                "exact.csv",
+                "l1,linf,mass,volume_half,peak",
+                Box::new(measure),
+            )
+        } else if config.logs_integrals() {
+            let measure = |sim: &Simulation| {
+                let m = smokelab::metrics::enstrophy::integrals(&sim.velocity);
+                let viscous = 2.0 * sim.params.viscosity as f64 * m.enstrophy;
+                format!("{},{},{}", m.energy, m.enstrophy, viscous)
+            };
+            (
+                "energy.csv",
+                "energy,enstrophy,viscous_dissipation",
+                Box::new(measure),
+            )
         } else {
             let flow = config.exact_velocity()?;
             let measure = move |sim: &Simulation| {
                 let m = flow.measure(&sim.velocity, sim.time());
                 format!("{},{},{},{}", m.l2, m.linf, m.energy, m.energy_exact)
             };
-            ("l2,linf,energy,energy_exact", Box::new(measure))
+            (
+                "exact.csv",
+                "l2,linf,energy,energy_exact",
+                Box::new(measure),
+            )
         };
         Some(Self {
             measure,
-            path: out.join("exact.csv"),
+            path: out.join(file),
             rows: format!("frame,t,{header}\n"),
         })
     }
@@ -293,6 +316,10 @@ pub(crate) fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
         (DeformationConfig::NAME, config::keys::<DeformationConfig>()),
         (ZalesakConfig::NAME, config::keys::<ZalesakConfig>()),
         (TaylorGreenConfig::NAME, config::keys::<TaylorGreenConfig>()),
+        (
+            TaylorGreen3dConfig::NAME,
+            config::keys::<TaylorGreen3dConfig>(),
+        ),
     ]
 }
 
@@ -421,6 +448,7 @@ fn run_scenario(args: &RunArgs) -> Result<()> {
         ScenarioKind::Deformation => run_config(args, &args.resolve::<DeformationConfig>()?),
         ScenarioKind::Zalesak => run_config(args, &args.resolve::<ZalesakConfig>()?),
         ScenarioKind::TaylorGreen => run_config(args, &args.resolve::<TaylorGreenConfig>()?),
+        ScenarioKind::TaylorGreen3d => run_config(args, &args.resolve::<TaylorGreen3dConfig>()?),
     }
 }
 

@@ -430,6 +430,7 @@ fn warmed_up(n: usize) -> Result<(Simulation, LiftFaces, RgbImage)> {
         viscosity: 0.0,
         gravity: Vec3::ZERO,
         backtrace: Backtrace::Rk2,
+        confinement: 0.0,
     };
     let sphere: Obstacle = Arc::new(Sphere {
         center: SPHERE,

@@ -17,6 +17,17 @@
 //! - **taylor-green**: the full Navier–Stokes step on the decaying vortex
 //!   (C-1's Taylor–Green studies, ν = 0.05, to t = π/2, CFL 0.5): the rms
 //!   velocity error against the exact solution, per scheme.
+//! - **taylor-green-1600**: the Taylor–Green vortex at Re = 1600 (the
+//!   International Workshop on High-Order CFD Methods' case C3.5,
+//!   `smokelab run taylor-green-3d`) to t = 20 at Courant number 0.51, per
+//!   scheme, without and with vorticity confinement at ε =
+//!   [`crate::turbulence_benchmark::CONFINEMENT`]: the peak dissipation `−dE/dt` (centred
+//!   differences of E every step) and its time, and the relative L2 misfit
+//!   of `E(t)` against the workshop's spectral DNS at 512³
+//!   (`crate::turbulence_benchmark`). No exact solution: the reference is
+//!   a converged simulation, and the misfit is the scheme's numerical
+//!   dissipation (or the energy confinement adds) on top of the viscous
+//!   decay.
 //!
 //! Representations: gridded with semi-Lagrangian (SL), QUICK (ULTIMATE
 //! limiter) and MacCormack advection; gridless and SELMA, which trace with
@@ -39,10 +50,11 @@
 //! the resolutions by least squares (`smokelab::fit::observed_order`).
 //!
 //! Run: `smokelab experiment V-1` (deformation and Taylor–Green at 32 and
-//! 64 cells across, Zalesak at 32 and 48; about 3½ minutes on 2 loaded
-//! cores, the deformation at 64³ three quarters of it; `--full` runs every
-//! case at 32, 64 and 128, gridless up to 64; `--smoke` is 16³ and 24³,
-//! seconds).
+//! 64 cells across, Zalesak at 32 and 48, Taylor–Green at Re = 1600 at
+//! 32³; about 4½ minutes on 2 loaded cores, the deformation at 64³ half
+//! of it, the Re = 1600 vortex about one; `--full` runs every case at 32,
+//! 64 and 128, gridless up to 64; `--smoke` is 16³ and 24³, the Re = 1600
+//! vortex at 16³, seconds).
 //!
 //! Writes `results/validation/`: `data.csv` (one row per case ×
 //! representation × scheme × resolution), `orders.csv` (the observed order
@@ -52,10 +64,17 @@
 //! `error_deformation.png/.svg`,
 //! `error_zalesak.png/.svg`, `error_taylor_green.png/.svg` (L1 or rms
 //! error against resolution, log-log, one line per representation and
-//! scheme, the observed order in the legend), `manifest.json` (with the
+//! scheme, the observed order in the legend),
+//! `taylor_green_1600_energy.png/.svg` and
+//! `taylor_green_1600_dissipation.png/.svg` (E(t) and −dE/dt at the finest
+//! resolution over the reference), `taylor_green_1600_history.csv` (every
+//! run's E, −dE/dt and enstrophy at every step), `manifest.json` (with the
 //! list of what was searched for published values, [`SEARCHED`]).
 //!
-//! Published values: none is set beside ours yet. A directly comparable
+//! Published values: the Taylor–Green vortex at Re = 1600 has its
+//! reference's peak dissipation and its time beside ours (read from the
+//! file, [`crate::turbulence_benchmark::REFERENCE_SOURCE`]). For the
+//! prescribed flows none is set yet. A directly comparable
 //! number needs the same test, resolution and norm, and Enright et al.
 //! 2002 measure a level set's volume, not a density's L1 return error —
 //! at best a caveated comparison with our volume of `ρ > ½` kept. Even
@@ -75,6 +94,7 @@ use crate::convergence_cases as cases;
 use crate::plot::{LegendPosition, Plot, Series, Style};
 use crate::registry::{Context, Experiment, Size};
 use crate::table::{read_rows, write_rows};
+use crate::turbulence_benchmark as bench;
 use smokelab::advection::Scheme;
 use smokelab::density::DensityMode;
 use smokelab::fit::observed_order;
@@ -88,8 +108,8 @@ pub const EXPERIMENT: Experiment = Experiment {
     id: "V-1",
     folder: "validation",
     reproduces: "published benchmarks",
-    title: "deformation, Zalesak, Taylor–Green: error per representation × scheme × resolution",
-    cost: "~3.5 min",
+    title: "deformation, Zalesak, Taylor–Green: error per representation × scheme × resolution; the Taylor–Green vortex at Re = 1600 against its spectral DNS, per scheme with and without confinement",
+    cost: "~4.5 min",
     run,
 };
 
@@ -196,6 +216,16 @@ pub struct Row {
     pub peak: f64,
     /// Rms velocity error against the exact solution (Taylor–Green only).
     pub velocity_rms: f64,
+    /// Vorticity confinement ε of the run (0: none).
+    pub confinement: f32,
+    /// Taylor–Green at Re = 1600: the largest dissipation `−dE/dt` (NaN
+    /// for the other cases).
+    pub peak_dissipation: f64,
+    /// Taylor–Green at Re = 1600: the time of the largest dissipation.
+    pub peak_time: f64,
+    /// Taylor–Green at Re = 1600: the relative L2 misfit of `E(t)` against
+    /// the spectral reference over t ∈ [0, 19.95].
+    pub energy_l2: f64,
     /// Wall time of the run.
     pub seconds: f64,
 }
@@ -212,9 +242,14 @@ impl Row {
 
     /// The legend label of its line.
     fn label(&self) -> String {
-        match self.scheme.as_str() {
+        let base = match self.scheme.as_str() {
             "-" => self.representation.clone(),
             s => format!("{} {s}", self.representation),
+        };
+        if self.confinement > 0.0 {
+            format!("{base} + confinement {}", self.confinement)
+        } else {
+            base
         }
     }
 }
@@ -239,19 +274,28 @@ struct Levels {
     /// the slot 2.4 cells.
     zalesak: Vec<usize>,
     taylor_green: Vec<usize>,
+    /// The Re = 1600 vortex to t = 20: 64³ would add about 10 minutes on 2
+    /// loaded cores, so it is `--full` only.
+    taylor_green_1600: Vec<usize>,
 }
 
 impl Levels {
     fn of(size: Size) -> Self {
-        let (deformation, zalesak, taylor_green) = size.pick(
-            (vec![16, 24], vec![16, 24], vec![16, 32]),
-            (vec![32, 64], vec![32, 48], vec![32, 64]),
-            (vec![32, 64, 128], vec![32, 64, 128], vec![32, 64, 128]),
+        let (deformation, zalesak, taylor_green, taylor_green_1600) = size.pick(
+            (vec![16, 24], vec![16, 24], vec![16, 32], vec![16]),
+            (vec![32, 64], vec![32, 48], vec![32, 64], vec![32]),
+            (
+                vec![32, 64, 128],
+                vec![32, 64, 128],
+                vec![32, 64, 128],
+                vec![32, 64, 128],
+            ),
         );
         Self {
             deformation,
             zalesak,
             taylor_green,
+            taylor_green_1600,
         }
     }
 
@@ -321,6 +365,10 @@ pub fn measure(case: Case, method: Method, res: usize) -> Result<Row> {
         volume_kept: m.volume,
         peak: m.peak,
         velocity_rms: f64::NAN,
+        confinement: 0.0,
+        peak_dissipation: f64::NAN,
+        peak_time: f64::NAN,
+        energy_l2: f64::NAN,
         seconds: start.elapsed().as_secs_f64(),
     })
 }
@@ -350,11 +398,165 @@ fn taylor_green(levels: &[usize]) -> Vec<Row> {
                 volume_kept: f64::NAN,
                 peak: f64::NAN,
                 velocity_rms: study.error[0],
+                confinement: 0.0,
+                peak_dissipation: f64::NAN,
+                peak_time: f64::NAN,
+                energy_l2: f64::NAN,
                 seconds: start.elapsed().as_secs_f64(),
             });
         }
     }
     rows
+}
+
+/// The case name of the Taylor–Green vortex at Re = 1600 in `data.csv`.
+const TG1600: &str = "taylor-green-1600";
+
+/// The time series of the Re = 1600 runs, for the figure.
+const HISTORY_CSV: &str = "taylor_green_1600_history.csv";
+
+/// One row of [`HISTORY_CSV`]: a run's state at one step.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct HistoryRow {
+    /// Representation, scheme and confinement, as in the legend.
+    pub method: String,
+    /// Cells across.
+    pub res: usize,
+    /// Time.
+    pub t: f64,
+    /// Kinetic energy per unit volume.
+    pub energy: f64,
+    /// `−dE/dt`, centred differences of the energy.
+    pub dissipation: f64,
+    /// Enstrophy per unit volume (spectral).
+    pub enstrophy: f64,
+}
+
+/// The Taylor–Green vortex at Re = 1600 to t = 20, per scheme, without and
+/// with confinement ([`crate::turbulence_benchmark::CONFINEMENT`]), at each of `levels`: a row of
+/// `data.csv` per run, and every run's history.
+fn taylor_green_1600(ctx: &Context, levels: &[usize]) -> Result<(Vec<Row>, Vec<HistoryRow>)> {
+    let reference = bench::reference()?;
+    let (mut rows, mut histories) = (vec![], vec![]);
+    for &res in levels {
+        for scheme in Scheme::ALL {
+            for epsilon in [0.0, bench::CONFINEMENT] {
+                let start = Instant::now();
+                let h = bench::run(scheme, epsilon, res, f32::INFINITY)?;
+                let (peak_dissipation, peak_time) = h.peak();
+                let row = Row {
+                    case: TG1600.into(),
+                    representation: DensityMode::Gridded.name().into(),
+                    scheme: scheme.name().into(),
+                    res,
+                    steps: h.t.len() - 1,
+                    l1: f64::NAN,
+                    linf: f64::NAN,
+                    mass_change: f64::NAN,
+                    volume_kept: f64::NAN,
+                    peak: f64::NAN,
+                    velocity_rms: f64::NAN,
+                    confinement: epsilon,
+                    peak_dissipation,
+                    peak_time,
+                    energy_l2: h.energy_l2(&reference),
+                    seconds: start.elapsed().as_secs_f64(),
+                };
+                if ctx.progress {
+                    eprintln!(
+                        "{TG1600} {} {res}³: peak −dE/dt {peak_dissipation:.4e} at t {peak_time:.2}, E misfit {:.3}, {:.1} s",
+                        row.label(),
+                        row.energy_l2,
+                        row.seconds
+                    );
+                }
+                for i in 0..h.t.len() {
+                    histories.push(HistoryRow {
+                        method: row.label(),
+                        res,
+                        t: h.t[i],
+                        energy: h.energy[i],
+                        dissipation: h.dissipation[i],
+                        enstrophy: h.enstrophy[i],
+                    });
+                }
+                rows.push(row);
+            }
+        }
+    }
+    Ok((rows, histories))
+}
+
+/// `taylor_green_1600_energy.png/.svg` and
+/// `taylor_green_1600_dissipation.png/.svg`: `E(t)` and `−dE/dt` of every
+/// run at the finest resolution against the spectral reference (black),
+/// one colour per scheme, dashed with confinement, from [`HISTORY_CSV`].
+fn draw_taylor_green_1600(dir: &std::path::Path) -> Result<()> {
+    let rows: Vec<HistoryRow> = read_rows(&dir.join(HISTORY_CSV))?;
+    let Some(finest) = rows.iter().map(|r| r.res).max() else {
+        return Ok(());
+    };
+    let reference = bench::reference()?;
+    let mut methods: Vec<&str> = vec![];
+    for r in rows.iter().filter(|r| r.res == finest) {
+        if !methods.contains(&r.method.as_str()) {
+            methods.push(&r.method);
+        }
+    }
+    let panel = |title: &str, y: &str, pick: fn(&HistoryRow) -> f64, refv: &[f64]| {
+        let mut plot = Plot::new(
+            format!("V-1 Taylor–Green Re 1600, {finest}³: {title}"),
+            "time t",
+            y,
+        )
+        .legend(LegendPosition::UpperRight);
+        plot = plot.series(
+            Series::line(
+                "spectral DNS 512³ (reference)",
+                reference
+                    .t
+                    .iter()
+                    .copied()
+                    .zip(refv.iter().copied())
+                    .collect(),
+            )
+            .colored(plotters::style::BLACK),
+        );
+        for (i, m) in methods.iter().enumerate() {
+            let points = rows
+                .iter()
+                .filter(|r| r.res == finest && r.method == *m && pick(r).is_finite())
+                .map(|r| (r.t, pick(r)))
+                .collect();
+            let scheme = i / 2;
+            let style = if m.contains("confinement") {
+                Style::Dashed
+            } else {
+                Style::Line
+            };
+            plot = plot.series(
+                Series::line(*m, points)
+                    .styled(style)
+                    .colored(crate::plot::PALETTE[scheme % crate::plot::PALETTE.len()]),
+            );
+        }
+        plot
+    };
+    panel(
+        "kinetic energy",
+        "E(t) per unit volume",
+        |r| r.energy,
+        &reference.energy,
+    )
+    .write(&dir.join("taylor_green_1600_energy"))?;
+    panel(
+        "dissipation",
+        "−dE/dt",
+        |r| r.dissipation,
+        &reference.dissipation,
+    )
+    .write(&dir.join("taylor_green_1600_dissipation"))?;
+    Ok(())
 }
 
 fn run(ctx: &Context) -> Result<()> {
@@ -385,7 +587,10 @@ fn run(ctx: &Context) -> Result<()> {
         }
     }
     rows.extend(taylor_green(&levels.taylor_green));
+    let (turbulent, histories) = taylor_green_1600(ctx, &levels.taylor_green_1600)?;
+    rows.extend(turbulent);
     write_rows(&ctx.out.join("data.csv"), &rows)?;
+    write_rows(&ctx.out.join(HISTORY_CSV), &histories)?;
     let orders = orders(&rows);
     write_rows(&ctx.out.join("orders.csv"), &orders)?;
     write_table(ctx, &rows, &orders)?;
@@ -395,6 +600,7 @@ fn run(ctx: &Context) -> Result<()> {
         "size": format!("{:?}", ctx.size),
         "resolutions": levels,
         "gridless_max_res": GRIDLESS_MAX_RES,
+        "taylor_green_1600_confinement": bench::CONFINEMENT,
         "published_searched": SEARCHED,
     });
     io::write_json(
@@ -426,6 +632,7 @@ fn lines(rows: &[Row]) -> Vec<((String, String), Vec<&Row>)> {
 fn orders(rows: &[Row]) -> Vec<OrderRow> {
     lines(rows)
         .into_iter()
+        .filter(|((case, _), _)| case != TG1600)
         .map(|((case, method), line)| {
             let (h, e): (Vec<f64>, Vec<f64>) = line
                 .iter()
@@ -573,6 +780,26 @@ const PUBLISHED: &[Published] = &[
         status: "the paper is not in the stored corpora",
         ours: ("gridded", "quick"),
     },
+    Published {
+        case: TG1600,
+        quantity: "peak dissipation",
+        method: "pseudo-spectral DNS",
+        res: "512³",
+        value: "1.2857528e-2",
+        source: crate::turbulence_benchmark::REFERENCE_SOURCE,
+        status: "read from the file (assets/spectral_Re1600_512.gdiag): the largest −dE/dt of its rows every 0.01",
+        ours: ("gridded", "maccormack"),
+    },
+    Published {
+        case: TG1600,
+        quantity: "peak time",
+        method: "pseudo-spectral DNS",
+        res: "512³",
+        value: "8.97",
+        source: crate::turbulence_benchmark::REFERENCE_SOURCE,
+        status: "read from the file: the time of its largest −dE/dt",
+        ours: ("gridded", "maccormack"),
+    },
 ];
 
 /// `published.csv`: each published value with its source, beside our value
@@ -598,11 +825,15 @@ fn write_published(ctx: &Context, rows: &[Row]) -> Result<()> {
             let finest = rows
                 .iter()
                 .filter(|r| {
-                    r.case == p.case && (r.representation.as_str(), r.scheme.as_str()) == p.ours
+                    r.case == p.case
+                        && r.confinement == 0.0
+                        && (r.representation.as_str(), r.scheme.as_str()) == p.ours
                 })
                 .max_by_key(|r| r.res);
             let ours = finest.map_or(f64::NAN, |r| match p.quantity {
                 "volume kept" => r.volume_kept,
+                "peak dissipation" => r.peak_dissipation,
+                "peak time" => r.peak_time,
                 _ => r.l1,
             });
             Out {
@@ -626,7 +857,11 @@ fn write_published(ctx: &Context, rows: &[Row]) -> Result<()> {
 pub fn draw(dir: &std::path::Path) -> Result<()> {
     let rows: Vec<Row> = read_rows(&dir.join("data.csv"))?;
     let orders: Vec<OrderRow> = read_rows(&dir.join("orders.csv"))?;
-    let mut cases: Vec<&str> = rows.iter().map(|r| r.case.as_str()).collect();
+    let mut cases: Vec<&str> = rows
+        .iter()
+        .map(|r| r.case.as_str())
+        .filter(|&c| c != TG1600)
+        .collect();
     cases.dedup();
     for case in cases {
         let of_case: Vec<Row> = rows.iter().filter(|r| r.case == case).cloned().collect();
@@ -669,5 +904,5 @@ pub fn draw(dir: &std::path::Path) -> Result<()> {
         }
         plot.write(&dir.join(format!("error_{}", case.replace('-', "_"))))?;
     }
-    Ok(())
+    draw_taylor_green_1600(dir)
 }

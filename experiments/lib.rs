@@ -33,6 +33,7 @@ pub mod growth;
 // Numbered experiments: the registry, their shared pieces, one file each.
 pub mod registry;
 pub mod convergence_cases;
+pub mod turbulence_benchmark;
 mod density_compare;
 mod sphere_wall_series;
 mod render_difference;

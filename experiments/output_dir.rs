@@ -55,7 +55,8 @@ pub fn is_frame_file(name: &str, exts: &[&str]) -> bool {
 }
 
 /// `smokelab run` (and `run --resume`): volumes, previews, renders, VDB and
-/// VTK frames, the obstacle, metrics (and a prescribed flow's `exact.csv`),
+/// VTK frames, the obstacle, metrics (and a prescribed flow's `exact.csv`, a turbulence
+/// benchmark's `energy.csv`),
 /// manifest and checkpoint.
 pub const RUN: Outputs = Outputs {
     command: "run",
@@ -64,6 +65,7 @@ pub const RUN: Outputs = Outputs {
             || [
                 "metrics.csv",
                 "exact.csv",
+                "energy.csv",
                 "manifest.json",
                 "run.pvd",
                 "obstacle.npy",

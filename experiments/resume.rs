@@ -17,6 +17,7 @@ use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
 use smokelab::scenario::slab_box::SlabBoxConfig;
 use smokelab::scenario::taylor_green::TaylorGreenConfig;
+use smokelab::scenario::taylor_green_3d::TaylorGreen3dConfig;
 use smokelab::scenario::{config, Scenario, ScenarioKind};
 
 /// `smokelab run --resume RUN_DIR`: check everything (the checkpoint whole,
@@ -72,6 +73,7 @@ pub(crate) fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
         ScenarioKind::Deformation => resume_config::<DeformationConfig>(args, dir, checkpoint),
         ScenarioKind::Zalesak => resume_config::<ZalesakConfig>(args, dir, checkpoint),
         ScenarioKind::TaylorGreen => resume_config::<TaylorGreenConfig>(args, dir, checkpoint),
+        ScenarioKind::TaylorGreen3d => resume_config::<TaylorGreen3dConfig>(args, dir, checkpoint),
     }
 }
 

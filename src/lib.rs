@@ -36,6 +36,7 @@ pub mod io;
 pub mod pressure;
 pub mod advection;
 pub mod forces;
+pub mod confinement;
 pub mod metrics;
 pub mod boundary;
 pub mod density;

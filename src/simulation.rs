@@ -18,7 +18,8 @@
 //! (`+ inject(…, dt)`), [`Simulation::clear_dry`] (the densities' side of
 //! the obstacles), [`Simulation::evaluate_densities`] (gridless and SELMA
 //! densities sampled at the cell centres for the force),
-//! [`Simulation::add_buoyancy`], [`Simulation::project`] and
+//! [`Simulation::add_buoyancy`] with [`Simulation::add_confinement`]
+//! (vorticity confinement, off by default), [`Simulation::project`] and
 //! [`Simulation::apply_boundary`] (§6.3: with the exact method the
 //! projection is the obstacle-aware solve of
 //! [`crate::pressure::obstacles`]; with the notes' method eqs 6.6–6.7
@@ -36,6 +37,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::advection::{AdvectionOptions, Advector, Backtrace, CflError};
 use crate::boundary::{Boundary, ObstacleMethod};
+use crate::confinement::Confinement;
 use crate::density::probe::cell_averages;
 use crate::density::{total_bytes, DensityModel, DensityOptions, DensityState, StepInput};
 use crate::domain::Domain;
@@ -188,14 +190,18 @@ pub struct StepParams {
     pub gravity: Vec3,
     /// Backtrace of the semi-Lagrangian steps.
     pub backtrace: Backtrace,
+    /// Vorticity confinement ε (Fedkiw, Stam & Jensen 2001, eq 11;
+    /// [`crate::confinement`]), 0 = off.
+    pub confinement: f32,
 }
 
 impl StepParams {
-    /// `Ok` when Δt and ν are finite numbers ≥ 0, else an error naming the
-    /// bad value.
+    /// `Ok` when Δt, ν and the confinement ε are finite numbers ≥ 0, else
+    /// an error naming the bad value.
     pub fn check(&self) -> Result<(), InputError> {
         check_non_negative("time step", self.dt)?;
-        check_non_negative("viscosity", self.viscosity)
+        check_non_negative("viscosity", self.viscosity)?;
+        check_non_negative("confinement", self.confinement)
     }
 }
 
@@ -235,6 +241,8 @@ pub struct Simulation {
     pressure: PressureSolver,
     /// The obstacle-aware pressure solve, with obstacles and the exact method.
     obstacle_projection: Option<ObstacleProjection>,
+    /// The vorticity confinement's buffers (allocated at its first use).
+    confinement: Confinement,
     /// A velocity given for all time ([`Self::with_prescribed_velocity`]).
     prescribed: Option<Arc<dyn PrescribedVelocity>>,
 }
@@ -257,6 +265,7 @@ impl Simulation {
                 PressurePrecision::default(),
             ),
             obstacle_projection: None,
+            confinement: Confinement::default(),
             prescribed: None,
         }
     }
@@ -395,7 +404,10 @@ impl Simulation {
         timed(&mut t.boundary, || self.clear_dry());
         if self.prescribed.is_none() {
             timed(&mut t.density, || self.evaluate_densities());
-            timed(&mut t.force, || self.add_buoyancy());
+            timed(&mut t.force, || {
+                self.add_buoyancy();
+                self.add_confinement();
+            });
             timed(&mut t.project, || self.project())?;
             timed(&mut t.boundary, || self.apply_boundary());
         }
@@ -523,6 +535,21 @@ impl Simulation {
         let p = self.params;
         let gases: Vec<_> = self.gases.iter().map(|g| (g.density(), g.lift)).collect();
         forces::add_buoyancy(&mut self.velocity, p.dt, p.gravity, &gases);
+    }
+
+    /// Vorticity confinement with the buoyancy, in the force verb: `u +=
+    /// Δt ε Δx (N × ω)` on the faces (Fedkiw, Stam & Jensen 2001, eqs 9–11;
+    /// [`Confinement::add`]), none on the faces obstacles close. Nothing
+    /// is done at `ε = 0`, the default.
+    pub fn add_confinement(&mut self) {
+        let p = self.params;
+        let open = self
+            .boundary
+            .as_ref()
+            .map(|b| b.open_faces())
+            .map(|o| [o.open(0), o.open(1), o.open(2)]);
+        self.confinement
+            .add(&mut self.velocity, p.dt, p.confinement, open);
     }
 
     /// Eq 6.3: make the velocity exactly (discretely) divergence-free with
@@ -655,6 +682,7 @@ mod tests {
             viscosity: -1.0,
             gravity: Vec3::new(0.0, -1.0, 0.0),
             backtrace: Backtrace::Rk2,
+            confinement: 0.0,
         };
         let gas = Gas::new("hot", domain, &source, 1.0);
         let mut sim = Simulation::new(domain, params, vec![gas]);
@@ -667,5 +695,55 @@ mod tests {
         sim.try_step().unwrap();
         assert_eq!(sim.step_index, 1);
         assert!(sim.gases[0].density().total() > 0.0);
+    }
+
+    /// Confinement in the force verb: ε = 0 gives the step of a simulation
+    /// that never heard of it, bit for bit; ε > 0 changes the velocity and
+    /// keeps it divergence-free (the force comes before the projection); a
+    /// negative ε is refused before anything moves.
+    #[test]
+    fn confinement_is_a_force_before_the_projection() {
+        let domain = Domain::new(Vec3::ZERO, 1.0, [12, 12, 12]).unwrap();
+        let source = ops::mask(ops::sphere(Vec3::new(6.0, 3.0, 6.0), 2.0));
+        let params = |confinement| StepParams {
+            dt: 0.2,
+            viscosity: 0.0,
+            gravity: Vec3::new(0.0, -1.0, 0.0),
+            backtrace: Backtrace::Rk2,
+            confinement,
+        };
+        let run = |confinement: f32, steps: usize| {
+            let gas = Gas::new("hot", domain, &source, 1.0);
+            let mut sim = Simulation::new(domain, params(confinement), vec![gas]);
+            for _ in 0..steps {
+                sim.try_step().unwrap();
+            }
+            sim
+        };
+        let plain = run(0.0, 6);
+        let off = run(0.0, 6);
+        let on = run(0.5, 6);
+        let bits = |s: &Simulation| -> Vec<u32> {
+            (0..3)
+                .flat_map(|a| {
+                    s.velocity
+                        .slice(a)
+                        .iter()
+                        .map(|v| v.to_bits())
+                        .collect::<Vec<_>>()
+                })
+                .collect()
+        };
+        assert_eq!(bits(&plain), bits(&off));
+        assert_ne!(bits(&plain), bits(&on));
+        let mut div = ScalarGrid::zeros(domain);
+        on.velocity.divergence(&mut div);
+        let worst = div.as_slice().iter().fold(0.0f32, |m, d| m.max(d.abs()));
+        assert!(worst < 1e-5 * on.velocity.max_norm(), "max|D u| {worst}");
+        let mut bad = run(0.0, 0);
+        bad.params.confinement = -0.1;
+        let err = bad.try_step().unwrap_err();
+        assert!(err.to_string().contains("confinement is -0.1"), "{err}");
+        assert_eq!(bad.step_index, 0);
     }
 }

@@ -224,6 +224,7 @@ impl Recorder {
                     viscosity: 0.0,
                     gravity: Vec3::ZERO,
                     backtrace: Default::default(),
+                    confinement: 0.0,
                 };
                 let kind = velocity.0.kind();
                 self.shell = Some(Simulation::new(domain, params, gases).with_box(kind));

@@ -5,6 +5,7 @@
 //! sharpness and the spread of their error ([`picture`]).
 
 pub mod blobs;
+pub mod enstrophy;
 pub mod interpolant;
 pub mod picture;
 pub mod spectrum;

@@ -154,6 +154,14 @@ solver_keys! {
     gravity: f32 = 1.0;
     flag gravity: Option<f32> [allow_negative_numbers = true] => given;
 
+    /// Vorticity confinement ε ≥ 0 (Fedkiw, Stam & Jensen 2001, eqs 9–11):
+    /// the force `ε Δx (N × ω)`, `N = ∇|ω| / |∇|ω||`, added with the
+    /// buoyancy every step to put back rotation the advection's numerical
+    /// dissipation removes (0: off; any scheme and density mode; no force
+    /// on the faces obstacles close).
+    confinement: f32 = 0.0;
+    flag confinement: Option<f32> [allow_negative_numbers = true] => given;
+
     /// Semi-Lagrangian backtrace: `euler`, `rk2` or `rk3`.
     backtrace: Backtrace = Backtrace::Rk2;
     flag backtrace: Option<Backtrace> [value_enum] => given;
@@ -274,13 +282,14 @@ impl SolverConfig {
         }
     }
 
-    /// Δt, ν, g⃗ = (0, −g, 0) and the backtrace.
+    /// Δt, ν, g⃗ = (0, −g, 0), the backtrace and the confinement ε.
     pub fn step_params(&self) -> StepParams {
         StepParams {
             dt: self.dt,
             viscosity: self.nu,
             gravity: Vec3::new(0.0, -self.gravity, 0.0),
             backtrace: self.backtrace,
+            confinement: self.confinement,
         }
     }
 
@@ -295,6 +304,7 @@ impl SolverConfig {
         check_positive("dt", self.dt)?;
         check_positive("size", self.size)?;
         check_non_negative("nu", self.nu)?;
+        check_non_negative("confinement", self.confinement)?;
         if !self.gravity.is_finite() {
             return Err(InputError::new(format!(
                 "gravity is {}; it must be finite",
@@ -397,6 +407,13 @@ pub trait Scenario: Clone + Default + Serialize + DeserializeOwned {
     /// scenario knows one (the Taylor–Green vortex).
     fn exact_velocity(&self) -> Option<super::taylor_green::TaylorGreen> {
         None
+    }
+
+    /// Whether a run logs the kinetic energy and enstrophy per unit volume
+    /// ([`crate::metrics::enstrophy`]) at every saved frame, `energy.csv`
+    /// (the turbulence benchmark, [`super::taylor_green_3d`]).
+    fn logs_integrals(&self) -> bool {
+        false
     }
 }
 

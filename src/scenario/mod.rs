@@ -6,6 +6,7 @@ pub mod prescribed;
 pub mod slab_box;
 pub mod sphere_wall;
 pub mod taylor_green;
+pub mod taylor_green_3d;
 
 use serde::{Deserialize, Serialize};
 
@@ -31,15 +32,21 @@ pub enum ScenarioKind {
     /// The Taylor–Green vortex decaying under the full Navier–Stokes step,
     /// measured against its exact solution ([`taylor_green`]).
     TaylorGreen,
+    /// The Taylor–Green vortex at Re = 1600 breaking down into turbulence
+    /// (the high-order CFD workshop's case C3.5, [`taylor_green_3d`]).
+    #[serde(rename = "taylor-green-3d")]
+    #[cfg_attr(feature = "clap", value(name = "taylor-green-3d"))]
+    TaylorGreen3d,
 }
 
 impl ScenarioKind {
     /// Every scenario.
-    pub const ALL: [ScenarioKind; 5] = [
+    pub const ALL: [ScenarioKind; 6] = [
         ScenarioKind::HotCold,
         ScenarioKind::SlabBox,
         ScenarioKind::Deformation,
         ScenarioKind::Zalesak,
         ScenarioKind::TaylorGreen,
+        ScenarioKind::TaylorGreen3d,
     ];
 }
