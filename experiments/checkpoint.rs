@@ -394,7 +394,10 @@ mod tests {
         config.solver.res = 8;
         let sim = config.build().unwrap();
         let state = sim.state();
-        for room in [10, 200_000] {
+        let mut whole = Vec::new();
+        write_to(&mut whole, b"{}", &state).unwrap();
+        // Full in the header, in the state, and at the checksum.
+        for room in [10, whole.len() / 2, whole.len() - 4] {
             let e = write_to(&mut Full { room }, b"{}", &state).unwrap_err();
             let e = format!("{e:#}");
             assert!(

@@ -219,7 +219,7 @@ fn overwrite_replaces_only_what_smokelab_wrote_whatever_the_names() {
         &[
             "output folder D holds",
             "files an earlier smokelab wrote",
-            "metrics.csv",
+            "manifest.json",
             "--overwrite",
         ],
     );
