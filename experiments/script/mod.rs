@@ -205,7 +205,8 @@ pub fn run(args: &ScriptArgs) -> Result<()> {
             .map_or("script".into(), |s| s.to_string_lossy());
         Path::new("runs").join(format!("script-{stem}"))
     });
-    let earlier = crate::output_dir::check(&out, &crate::output_dir::SCRIPT, args.overwrite)?;
+    let earlier =
+        crate::run::output_dir::check(&out, &crate::run::output_dir::SCRIPT, args.overwrite)?;
     earlier.remove()?;
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let recorder = Rc::new(RefCell::new(Recorder::new(out.clone())));
