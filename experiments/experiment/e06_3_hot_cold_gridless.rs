@@ -51,14 +51,7 @@ fn run(ctx: &Context) -> Result<()> {
         ModeRun::new(&config, DensityMode::Selma),
         ModeRun::gridded_maccormack(&config),
     ];
-    for m in &modes {
-        m.config.validate()?;
-    }
-    dc::plan(&modes);
-    let results = modes
-        .iter()
-        .map(|m| dc::run_mode(ctx, m, &capture, look))
-        .collect::<Result<Vec<_>>>()?;
+    let results = dc::run_modes(ctx, &modes, &capture, look)?;
     let gridless = &results[0];
     let times = (capture.as_slice(), config.solver.dt);
     let res = config.solver.res;

@@ -89,14 +89,7 @@ fn run(ctx: &Context) -> Result<()> {
         ));
         modes.push(ModeRun::selma_fine(&config, 2));
     }
-    for m in &modes {
-        m.config.validate()?;
-    }
-    dc::plan(&modes);
-    let results = modes
-        .iter()
-        .map(|m| dc::run_mode(ctx, m, &capture, look))
-        .collect::<Result<Vec<_>>>()?;
+    let results = dc::run_modes(ctx, &modes, &capture, look)?;
     let all: Vec<&dc::ModeResult> = results.iter().collect();
     let times = (capture.as_slice(), config.solver.dt);
     let res = config.solver.res;

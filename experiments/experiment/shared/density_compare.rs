@@ -246,9 +246,27 @@ pub(crate) fn render_fine(sim: &Simulation, side: u32) -> Result<RgbImage> {
     Ok(output::preview(&r.image, &Display::default()))
 }
 
+/// Run every one of `modes` ([`run_mode`]) after checking all their
+/// configurations and announcing them as the experiment's stages.
+pub(crate) fn run_modes(
+    ctx: &Context,
+    modes: &[ModeRun],
+    capture: &[usize],
+    look: Look,
+) -> Result<Vec<ModeResult>> {
+    for m in modes {
+        m.config.validate()?;
+    }
+    plan(modes);
+    modes
+        .iter()
+        .map(|m| run_mode(ctx, m, capture, look))
+        .collect()
+}
+
 /// Announce the runs of `modes` as the experiment's stages (one overall
 /// progress bar with an overall ETA).
-pub(crate) fn plan(modes: &[ModeRun]) {
+fn plan(modes: &[ModeRun]) {
     let stages: Vec<(&str, u64, crate::run::progress::Growth)> = modes
         .iter()
         .map(|m| {
@@ -264,12 +282,7 @@ pub(crate) fn plan(modes: &[ModeRun]) {
 }
 
 /// Run one mode into `<ctx.out>/<label>/`, capturing `capture` frames.
-pub(crate) fn run_mode(
-    ctx: &Context,
-    mode: &ModeRun,
-    capture: &[usize],
-    look: Look,
-) -> Result<ModeResult> {
+fn run_mode(ctx: &Context, mode: &ModeRun, capture: &[usize], look: Look) -> Result<ModeResult> {
     let config = &mode.config;
     let mut sim = config.build()?;
     let dir = ctx.out.join(&mode.label);
