@@ -24,7 +24,6 @@
 //! mode with its `metrics.csv` and `manifest.json` (volumes git-ignored).
 
 use anyhow::Result;
-use smokelab::scenario::Scenario;
 
 use crate::experiment::kit::{Context, Experiment};
 use crate::experiment::shared::density_compare::{self as dc, ModeRun};

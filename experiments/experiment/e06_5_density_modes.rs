@@ -38,7 +38,6 @@
 //! `manifest.json`, and one folder per mode with its `metrics.csv`.
 
 use anyhow::Result;
-use smokelab::scenario::Scenario;
 
 use crate::experiment::kit::{Context, Experiment, Size};
 use crate::experiment::shared::density_compare::{self as dc, ModeRun};

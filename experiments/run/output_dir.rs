@@ -261,6 +261,24 @@ pub fn check_own_manifest(out: &Path, own_key: &str, command: &str) -> Result<()
     )))
 }
 
+/// The repository the working folder is in: the nearest folder at or
+/// above it that holds `paper/paper.md`. There is no fallback to the
+/// checkout this binary was built from: outside a repository the commands
+/// that write into it (`paper`, `gallery`) need a path given.
+pub fn repository_root() -> Result<PathBuf> {
+    let cwd = std::env::current_dir().context("cannot read the working directory")?;
+    cwd.ancestors()
+        .map(Path::to_path_buf)
+        .find(|d| d.join("paper/paper.md").is_file())
+        .map(|d| d.canonicalize().unwrap_or(d))
+        .ok_or_else(|| {
+            anyhow::Error::new(InputError::new(format!(
+                "no paper/paper.md in {} or above it: run inside the repository, or give its folder (paper --root DIR, gallery --results DIR)",
+                cwd.display()
+            )))
+        })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -346,22 +364,4 @@ mod tests {
         assert!(check(dir.path(), &RENDER, false).is_err());
         assert_eq!(check(dir.path(), &RENDER, true).unwrap().files.len(), 1);
     }
-}
-
-/// The repository the working folder is in: the nearest folder at or
-/// above it that holds `paper/paper.md`. There is no fallback to the
-/// checkout this binary was built from: outside a repository the commands
-/// that write into it (`paper`, `gallery`) need a path given.
-pub fn repository_root() -> Result<PathBuf> {
-    let cwd = std::env::current_dir().context("cannot read the working directory")?;
-    cwd.ancestors()
-        .map(Path::to_path_buf)
-        .find(|d| d.join("paper/paper.md").is_file())
-        .map(|d| d.canonicalize().unwrap_or(d))
-        .ok_or_else(|| {
-            anyhow::Error::new(InputError::new(format!(
-                "no paper/paper.md in {} or above it: run inside the repository, or give its folder (paper --root DIR, gallery --results DIR)",
-                cwd.display()
-            )))
-        })
 }

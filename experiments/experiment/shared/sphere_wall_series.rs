@@ -584,7 +584,7 @@ pub(crate) fn run_compared(ctx: &Context, pic: Picture, extra: Vec<Difference>) 
     let Setup { config, flow, wall } = &setup;
     let f = flow.frames();
     let initial = AdvectedWall::gridless(wall, None, flow, 0)?;
-    let (m0, p0) = measure(&initial, &flow);
+    let (m0, p0) = measure(&initial, flow);
     let exact: f64 = wall
         .rows
         .iter()
@@ -600,7 +600,7 @@ pub(crate) fn run_compared(ctx: &Context, pic: Picture, extra: Vec<Difference>) 
                 built.len() - 1
             }
         };
-        let (img, stats) = render_wall(&built[i].state, &flow, panel.march, pic.size)?;
+        let (img, stats) = render_wall(&built[i].state, flow, panel.march, pic.size)?;
         renders.push((i, img, stats));
     }
     let rows = panel_rows(&pic.panels, &renders, &built)?;
@@ -628,7 +628,7 @@ pub(crate) fn run_compared(ctx: &Context, pic: Picture, extra: Vec<Difference>) 
     )?;
     let first = &renders[0].1;
     io::write_png(&ctx.out.join("render.png"), first)?;
-    let (img0, _) = render_wall(&initial, &flow, March::jittered(10.0), pic.size)?;
+    let (img0, _) = render_wall(&initial, flow, March::jittered(10.0), pic.size)?;
     let headings = [
         format!("{} · fig 7.3", time(0)),
         format!("{} · {}", time(f), names[0]),
