@@ -9,7 +9,8 @@
 //! ```
 //!
 //! The velocity lives on the faces of the cells ([`FaceGrid`], the MAC grid;
-//! DESIGN.md "Velocity lives on faces"), the densities at the cell centres.
+//! `ARCHITECTURE.md`, "One step, following the data"), the densities at the
+//! cell centres.
 //! `fftdivfree` is the exact pressure solve of [`PressureSolver`].
 //!
 //! [`Simulation::try_step`] is those lines as verbs, each one call:

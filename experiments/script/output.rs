@@ -39,8 +39,8 @@ use smokelab::io;
 use smokelab::simulation::{Gas, Simulation, StepParams};
 
 use super::types::{Fallible, Region, ScalarCache, ScalarF, VectorCache};
+use crate::figures::table::Log;
 use crate::run::{FineProbes, StepMeasures};
-use crate::table::Log;
 
 /// The steps whose fine measures `record(frame, dt, velocity, gases)`
 /// takes: those of `smokelab run --metrics-every 10`.
