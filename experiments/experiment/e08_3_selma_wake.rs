@@ -470,6 +470,7 @@ fn warmed_up(n: usize) -> Result<(Simulation, LiftFaces, RgbImage)> {
         viscosity: 0.0,
         gravity: Vec3::ZERO,
         backtrace: Backtrace::Rk2,
+        interpolant: Default::default(),
     };
     let sphere: Obstacle = Arc::new(Sphere {
         center: SPHERE,

@@ -190,6 +190,10 @@ pub struct FineMeasures {
     /// The divergence tracers feel, relative to `|∇u|`, at [`PROBE_POINTS`]
     /// fixed random points.
     pub div_interp: metrics::RmsMax,
+    /// The divergence of the velocity's interpolant differentiated exactly
+    /// at the same points, relative to `max|u|/Δx`
+    /// ([`metrics::face_pointwise_divergence`]).
+    pub div_point: metrics::RmsMax,
 }
 
 /// The state of the fine measures on one grid, made once per run: the
@@ -222,6 +226,7 @@ impl FineProbes {
                 f64::NAN
             },
             div_interp: metrics::face_interpolant_divergence(&sim.velocity, &self.points),
+            div_point: metrics::face_pointwise_divergence(&sim.velocity, &self.points),
         }
     }
 }
@@ -238,7 +243,10 @@ pub const CFL_WARNING: f32 = 10.0;
 ///   (`diagnostics_every`, `NaN` between), `div_interp_rms, div_interp_max` (the divergence of
 ///   the velocity's point query at [`PROBE_POINTS`] fixed random points,
 ///   relative to the rms of `|∇u|` there —
-///   [`metrics::interpolant_divergence`]), `ke_top_octave` (share of the
+///   [`metrics::interpolant_divergence`]), `div_point_rms, div_point_max`
+///   (the interpolant's divergence differentiated exactly at the same
+///   points, relative to `max|u|/Δx` —
+///   [`metrics::face_pointwise_divergence`]), `ke_top_octave` (share of the
 ///   kinetic energy with a wavenumber index beyond `N/4` on some axis: the top
 ///   octave, grid-scale flow); these two on the fine-measure cadence, `NaN`
 ///   between;
@@ -283,6 +291,8 @@ struct StepColumns {
     div_max: f32,
     div_interp_rms: f32,
     div_interp_max: f32,
+    div_point_rms: f32,
+    div_point_max: f32,
     ke_top_octave: f64,
 }
 
@@ -420,6 +430,8 @@ impl MetricsRow {
                 div_max: div.max,
                 div_interp_rms: fine.map_or(f32::NAN, |f| f.div_interp.rms),
                 div_interp_max: fine.map_or(f32::NAN, |f| f.div_interp.max),
+                div_point_rms: fine.map_or(f32::NAN, |f| f.div_point.rms),
+                div_point_max: fine.map_or(f32::NAN, |f| f.div_point.max),
                 ke_top_octave: fine.map_or(f64::NAN, |f| f.ke_top_octave),
             },
             gases,

@@ -398,6 +398,7 @@ fn taylor_green_study(scheme: Scheme, resolutions: &[usize]) -> Study {
             viscosity: nu,
             gravity: Vec3::ZERO,
             backtrace: Backtrace::Rk2,
+            interpolant: Default::default(),
         };
         // f64 transforms: the study measures the scheme's error, not the
         // f32 solve's round-off.
