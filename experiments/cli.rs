@@ -68,6 +68,8 @@ pub enum Command {
     Script(crate::script::ScriptArgs),
     /// Write `results/index.html`: every experiment's figures with captions and commands.
     Gallery(crate::gallery::GalleryArgs),
+    /// Run a parameter sweep (a scenario over axes of keys, or experiments) locally or as a Slurm job array; track, resubmit and gather it.
+    Sweep(crate::sweep::SweepArgs),
 }
 
 /// `smokelab run`.
@@ -407,6 +409,7 @@ pub fn execute(cli: Cli) -> Result<()> {
         Some(Command::Paper(args)) => crate::paper::run(&args),
         Some(Command::Script(args)) => crate::script::run(&args),
         Some(Command::Gallery(args)) => crate::gallery::run(&args),
+        Some(Command::Sweep(args)) => crate::sweep::run(args),
     }
 }
 
@@ -434,20 +437,7 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         return Ok(());
     }
     let s = config.solver();
-    // SELMA's key given on the command line to another mode, even at its
-    // default (the configuration refuses any other value itself).
-    let remap_given = args.solver.selma_remap.is_some()
-        || args
-            .set
-            .iter()
-            .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
-    if remap_given && s.density != DensityMode::Selma {
-        return Err(InputError::new(format!(
-            "selma_remap {} is only used by --density selma (density is {})",
-            s.selma_remap, s.density
-        ))
-        .into());
-    }
+    check_selma_remap(args, s)?;
     init_threads(s.threads)?;
     let out = args.out.clone().unwrap_or_else(|| default_run_dir(C::NAME));
     let earlier = output_dir::check(&out, &output_dir::RUN, args.overwrite)?;
@@ -498,6 +488,23 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         summary.wall_seconds,
         out.display()
     );
+    Ok(())
+}
+
+/// Refuse SELMA's key given on the command line to another density mode,
+/// even at its default (the configuration refuses any other value itself).
+pub(crate) fn check_selma_remap(args: &RunArgs, s: &SolverConfig) -> Result<(), InputError> {
+    let remap_given = args.solver.selma_remap.is_some()
+        || args
+            .set
+            .iter()
+            .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
+    if remap_given && s.density != DensityMode::Selma {
+        return Err(InputError::new(format!(
+            "selma_remap {} is only used by --density selma (density is {})",
+            s.selma_remap, s.density
+        )));
+    }
     Ok(())
 }
 

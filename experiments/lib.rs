@@ -23,6 +23,7 @@ pub mod progress;
 pub mod output_dir;
 pub mod memory;
 pub mod script;
+pub mod sweep;
 
 // Figures and tables.
 pub mod plot;
