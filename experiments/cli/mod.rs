@@ -15,6 +15,7 @@ pub mod process;
 pub mod render;
 mod resume;
 pub mod run;
+pub mod sweep;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -64,6 +65,8 @@ pub enum Command {
     Script(crate::script::ScriptArgs),
     /// Write `results/index.html`: every experiment's figures with captions and commands.
     Gallery(crate::publish::gallery::GalleryArgs),
+    /// Run a parameter sweep (a scenario over axes of keys, or experiments) locally or as a Slurm job array; track, resubmit and gather it.
+    Sweep(crate::cli::sweep::SweepArgs),
 }
 
 /// Run the parsed command line.
@@ -84,5 +87,6 @@ pub fn execute(cli: Cli) -> Result<()> {
         Some(Command::Paper(args)) => crate::publish::paper::run(&args),
         Some(Command::Script(args)) => crate::script::run(&args),
         Some(Command::Gallery(args)) => crate::publish::gallery::run(&args),
+        Some(Command::Sweep(args)) => crate::cli::sweep::run(args),
     }
 }

@@ -251,6 +251,23 @@ pub(crate) fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
     ]
 }
 
+/// Refuse SELMA's key given on the command line to another density mode,
+/// even at its default (the configuration refuses any other value itself).
+pub(crate) fn check_selma_remap(args: &RunArgs, s: &SolverConfig) -> Result<(), InputError> {
+    let remap_given = args.solver.selma_remap.is_some()
+        || args
+            .set
+            .iter()
+            .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
+    if remap_given && s.density != DensityMode::Selma {
+        return Err(InputError::new(format!(
+            "selma_remap {} is only used by --density selma (density is {})",
+            s.selma_remap, s.density
+        )));
+    }
+    Ok(())
+}
+
 /// `smokelab run` (without `--resume`): the scenario registry, one line
 /// per scenario.
 pub(super) fn run_scenario(args: &RunArgs) -> Result<()> {
@@ -273,20 +290,7 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         return Ok(());
     }
     let s = config.solver();
-    // SELMA's key given on the command line to another mode, even at its
-    // default (the configuration refuses any other value itself).
-    let remap_given = args.solver.selma_remap.is_some()
-        || args
-            .set
-            .iter()
-            .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
-    if remap_given && s.density != DensityMode::Selma {
-        return Err(InputError::new(format!(
-            "selma_remap {} is only used by --density selma (density is {})",
-            s.selma_remap, s.density
-        ))
-        .into());
-    }
+    check_selma_remap(args, s)?;
     init_threads(s.threads)?;
     if let Some(out) = &args.out {
         output_dir::check(out, &output_dir::RUN, args.overwrite)?;
