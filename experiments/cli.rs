@@ -286,7 +286,7 @@ impl RunArgs {
 
 /// Every scenario's name and keys, for naming the owner of a key another
 /// scenario does not have.
-pub(crate) fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
+pub fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
     vec![
         (HotColdConfig::NAME, config::keys::<HotColdConfig>()),
         (SlabBoxConfig::NAME, config::keys::<SlabBoxConfig>()),
@@ -381,7 +381,7 @@ pub fn interrupt_hint() -> String {
 }
 
 /// Set the number of rayon worker threads (once per process).
-pub(crate) fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
+pub fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
     if let Some(n) = threads {
         smokelab::timing::check_threads(n)?;
         // A second call (e.g. in tests) keeps the first pool; that is fine.
@@ -501,7 +501,8 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
     Ok(())
 }
 
-pub(crate) fn default_run_dir(name: &str) -> PathBuf {
+/// The folder a run without `--out` writes: `runs/<name>-<unix seconds>`.
+pub fn default_run_dir(name: &str) -> PathBuf {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());
