@@ -282,6 +282,24 @@ impl RunArgs {
     pub fn resolve<C: Scenario>(&self) -> Result<C, InputError> {
         config::resolve::<C>(&self.layers()?, &scenario_keys())
     }
+
+    /// Refuse SELMA's key given on the command line to another mode than
+    /// `s`'s, even at its default (the configuration refuses any other
+    /// value itself).
+    pub fn check_selma_remap(&self, s: &SolverConfig) -> Result<(), InputError> {
+        let given = self.solver.selma_remap.is_some()
+            || self
+                .set
+                .iter()
+                .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
+        if given && s.density != DensityMode::Selma {
+            return Err(InputError::new(format!(
+                "selma_remap {} is only used by --density selma (density is {})",
+                s.selma_remap, s.density
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// Every scenario's name and keys, for naming the owner of a key another
@@ -434,20 +452,7 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         return Ok(());
     }
     let s = config.solver();
-    // SELMA's key given on the command line to another mode, even at its
-    // default (the configuration refuses any other value itself).
-    let remap_given = args.solver.selma_remap.is_some()
-        || args
-            .set
-            .iter()
-            .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
-    if remap_given && s.density != DensityMode::Selma {
-        return Err(InputError::new(format!(
-            "selma_remap {} is only used by --density selma (density is {})",
-            s.selma_remap, s.density
-        ))
-        .into());
-    }
+    args.check_selma_remap(s)?;
     init_threads(s.threads)?;
     let out = args.out.clone().unwrap_or_else(|| default_run_dir(C::NAME));
     let earlier = output_dir::check(&out, &output_dir::RUN, args.overwrite)?;

@@ -195,18 +195,7 @@ fn check_simd() -> PyResult<()> {
 fn build<C: Scenario>(args: &RunArgs) -> Result<Built, InputError> {
     let config: C = args.resolve()?;
     let s = config.solver();
-    // As `smokelab run`: SELMA's key given to another mode, even at its
-    // default, is a mistake (the configuration refuses other values itself).
-    let remap_given = args
-        .set
-        .iter()
-        .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
-    if remap_given && s.density != DensityMode::Selma {
-        return Err(InputError::new(format!(
-            "selma_remap {} is only used by --density selma (density is {})",
-            s.selma_remap, s.density
-        )));
-    }
+    args.check_selma_remap(s)?;
     cli::init_threads(s.threads)?;
     let sim = config.build()?;
     Built::new(args.scenario, &config, sim)
