@@ -237,11 +237,29 @@ impl RunArgs {
     pub fn resolve<C: Scenario>(&self) -> Result<C, InputError> {
         config::resolve::<C>(&self.layers()?, &scenario_keys())
     }
+
+    /// Refuse SELMA's key given on the command line to another mode than
+    /// `s`'s, even at its default (the configuration refuses any other
+    /// value itself).
+    pub fn check_selma_remap(&self, s: &SolverConfig) -> Result<(), InputError> {
+        let given = self.solver.selma_remap.is_some()
+            || self
+                .set
+                .iter()
+                .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
+        if given && s.density != DensityMode::Selma {
+            return Err(InputError::new(format!(
+                "selma_remap {} is only used by --density selma (density is {})",
+                s.selma_remap, s.density
+            )));
+        }
+        Ok(())
+    }
 }
 
 /// Every scenario's name and keys, for naming the owner of a key another
 /// scenario does not have.
-pub(crate) fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
+pub fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
     vec![
         (HotColdConfig::NAME, config::keys::<HotColdConfig>()),
         (SlabBoxConfig::NAME, config::keys::<SlabBoxConfig>()),
@@ -249,23 +267,6 @@ pub(crate) fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
         (ZalesakConfig::NAME, config::keys::<ZalesakConfig>()),
         (TaylorGreenConfig::NAME, config::keys::<TaylorGreenConfig>()),
     ]
-}
-
-/// Refuse SELMA's key given on the command line to another density mode,
-/// even at its default (the configuration refuses any other value itself).
-pub(crate) fn check_selma_remap(args: &RunArgs, s: &SolverConfig) -> Result<(), InputError> {
-    let remap_given = args.solver.selma_remap.is_some()
-        || args
-            .set
-            .iter()
-            .any(|p| p.split('=').next().map(str::trim) == Some("selma_remap"));
-    if remap_given && s.density != DensityMode::Selma {
-        return Err(InputError::new(format!(
-            "selma_remap {} is only used by --density selma (density is {})",
-            s.selma_remap, s.density
-        )));
-    }
-    Ok(())
 }
 
 /// `smokelab run` (without `--resume`): the scenario registry, one line
@@ -290,7 +291,7 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         return Ok(());
     }
     let s = config.solver();
-    check_selma_remap(args, s)?;
+    args.check_selma_remap(s)?;
     init_threads(s.threads)?;
     if let Some(out) = &args.out {
         output_dir::check(out, &output_dir::RUN, args.overwrite)?;

@@ -189,6 +189,12 @@ impl<W: Write> Write for Hashing<W> {
 
 /// Write `dir/checkpoint.bin` for `sim` as it is now, atomically.
 pub fn write(dir: &Path, sim: &Simulation, run: &RunRecord) -> Result<()> {
+    write_file(&dir.join(FILE), sim, run)
+}
+
+/// Write the checkpoint of `sim` as it is now to the file `path`,
+/// atomically (the Python module's `Simulation.checkpoint`).
+pub fn write_file(path: &Path, sim: &Simulation, run: &RunRecord) -> Result<()> {
     let state = sim.state();
     let header = Header {
         version: env!("CARGO_PKG_VERSION").into(),
@@ -199,7 +205,7 @@ pub fn write(dir: &Path, sim: &Simulation, run: &RunRecord) -> Result<()> {
         gases: state.gases.iter().map(|(_, d)| GasSummary::of(d)).collect(),
     };
     let json = serde_json::to_vec(&header)?;
-    io::write_atomic(&dir.join(FILE), |w| write_to(w, &json, &state))
+    io::write_atomic(path, |w| write_to(w, &json, &state))
 }
 
 /// The checkpoint file's bytes after its header `json`: magic, format,
@@ -246,15 +252,27 @@ impl Checkpoint {
     /// here) or smokelab version.
     pub fn read(dir: &Path) -> Result<Self, InputError> {
         let path = dir.join(FILE);
-        let show = path.display();
         if !path.is_file() {
             return Err(InputError::new(format!(
                 "{} has no {FILE}; only a run started with --checkpoint-every K can be resumed",
                 dir.display()
             )));
         }
-        let bytes = std::fs::read(&path)
-            .map_err(|e| InputError::new(format!("cannot read {show}: {e}")))?;
+        Self::read_file(&path)
+    }
+
+    /// Read the checkpoint file `path` (as [`Self::read`]; the Python
+    /// module's `Simulation.resume`).
+    ///
+    /// # Errors
+    /// As [`Self::read`], and if `path` is not a file.
+    pub fn read_file(path: &Path) -> Result<Self, InputError> {
+        let show = path.display();
+        if !path.is_file() {
+            return Err(InputError::new(format!("checkpoint {show} is not a file")));
+        }
+        let bytes =
+            std::fs::read(path).map_err(|e| InputError::new(format!("cannot read {show}: {e}")))?;
         let corrupt = |why: &str| InputError::new(format!("{show} is {why}; it cannot be resumed"));
         if bytes.len() < MAGIC.len() && MAGIC.starts_with(&bytes) {
             return Err(corrupt("truncated"));

@@ -434,7 +434,7 @@ fn check(args: &RunArgs) -> Result<(), InputError> {
         ScenarioKind::Zalesak => args.resolve::<ZalesakConfig>()?.solver().clone(),
         ScenarioKind::TaylorGreen => args.resolve::<TaylorGreenConfig>()?.solver().clone(),
     };
-    crate::cli::run::check_selma_remap(args, &solver)
+    args.check_selma_remap(&solver)
 }
 
 /// One point per experiment id.
