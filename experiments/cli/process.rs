@@ -32,7 +32,7 @@ pub fn interrupt_hint() -> String {
 }
 
 /// Set the number of rayon worker threads (once per process).
-pub(crate) fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
+pub fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
     if let Some(n) = threads {
         smokelab::timing::check_threads(n)?;
         // A second call (e.g. in tests) keeps the first pool; that is fine.
@@ -43,7 +43,7 @@ pub(crate) fn init_threads(threads: Option<usize>) -> Result<(), InputError> {
     Ok(())
 }
 
-pub(crate) fn default_run_dir(name: &str) -> PathBuf {
+pub fn default_run_dir(name: &str) -> PathBuf {
     let secs = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_secs());

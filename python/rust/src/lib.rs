@@ -36,9 +36,12 @@ use smokelab::scenario::slab_box::SlabBoxConfig;
 use smokelab::scenario::taylor_green::TaylorGreenConfig;
 use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig};
 use smokelab::simulation::{Simulation, StepError};
-use smokelab_app::checkpoint::{self, Checkpoint, RunRecord};
-use smokelab_app::cli::{self, Cli, Command, RunArgs};
-use smokelab_app::frames::simulation_scene;
+use smokelab_app::cli::process::{default_run_dir, init_threads};
+use smokelab_app::cli::run::{scenario_keys, RunArgs};
+use smokelab_app::cli::{self, Cli, Command};
+use smokelab_app::run::checkpoint::{self, Checkpoint, RunRecord};
+use smokelab_app::run::frames::simulation_scene;
+use smokelab_app::run::output_dir;
 
 /// `$body` with the type `$C` bound to the configuration of scenario `$kind`.
 macro_rules! with_scenario {
@@ -196,7 +199,7 @@ fn build<C: Scenario>(args: &RunArgs) -> Result<Built, InputError> {
     let config: C = args.resolve()?;
     let s = config.solver();
     args.check_selma_remap(s)?;
-    cli::init_threads(s.threads)?;
+    init_threads(s.threads)?;
     let sim = config.build()?;
     Built::new(args.scenario, &config, sim)
 }
@@ -291,8 +294,8 @@ impl PySimulation {
                 })?;
                 let layers = [("checkpoint".to_string(), table)];
                 with_scenario!(record.scenario, C => {
-                    let config: C = config::resolve(&layers, &cli::scenario_keys())?;
-                    cli::init_threads(config.solver().threads)?;
+                    let config: C = config::resolve(&layers, &scenario_keys())?;
+                    init_threads(config.solver().threads)?;
                     let mut sim = config.build()?;
                     sim.restore(checkpoint.into_state())?;
                     Built::new(record.scenario, &config, sim)
@@ -535,7 +538,11 @@ fn run(
 ) -> PyResult<PathBuf> {
     check_simd()?;
     let kind = scenario_kind(scenario)?;
-    let out = out.unwrap_or_else(|| cli::default_run_dir(&scenario_name(kind)));
+    // Without `out`, a new folder of its own (as the command line's run).
+    let out = match out {
+        Some(out) => out,
+        None => output_dir::create_fresh(&default_run_dir(&scenario_name(kind))).map_err(app_error)?,
+    };
     let args = RunArgs {
         out: Some(out.clone()),
         overwrite,
