@@ -129,7 +129,8 @@ pub(super) fn run(args: &ExperimentArgs) -> Result<()> {
         (None, kit::Size::Smoke | kit::Size::Full) => output_dir::create_fresh(&out)?,
         _ => out,
     };
-    let _folder = output_dir::open(&out, &output_dir::EXPERIMENT, args.overwrite)?;
+    let existed = out.exists();
+    let folder = output_dir::open(&out, &output_dir::EXPERIMENT, args.overwrite)?;
     let ctx = kit::Context {
         out: out.clone(),
         size,
@@ -137,10 +138,17 @@ pub(super) fn run(args: &ExperimentArgs) -> Result<()> {
         peers: args.peers.clone(),
     };
     let start = std::time::Instant::now();
-    {
+    let outcome = {
         let _bar = crate::run::progress::experiment(exp.id, !args.quiet);
-        (exp.run)(&ctx)?;
+        (exp.run)(&ctx)
+    };
+    if outcome.is_err() && !existed {
+        // Input the experiment checks itself (P-1's `--peers`) leaves no
+        // folder behind when it is refused before anything is written.
+        drop(folder);
+        output_dir::remove_if_unwritten(&out);
     }
+    outcome?;
     println!(
         "experiment {} ({}) finished in {:.1} s; wrote {}",
         exp.id,

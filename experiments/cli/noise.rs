@@ -274,7 +274,8 @@ pub fn run(args: &NoiseArgs) -> Result<()> {
     check_reach(&spec, args.size)?;
     crate::run::output_dir::check(&args.out, &crate::run::output_dir::NOISE, args.overwrite)?;
     let field = spec.build()?;
-    let _folder = crate::run::output_dir::open(&args.out, &crate::run::output_dir::NOISE, args.overwrite)?;
+    let _folder =
+        crate::run::output_dir::open(&args.out, &crate::run::output_dir::NOISE, args.overwrite)?;
     let px = args.res.max(512);
     // Progress: the grid's samples, then the slice's (the LIC after them is
     // not counted).

@@ -152,7 +152,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let rendered = render(&counted, &job.settings)?;
     bar.finish_and_clear();
-    let _folder = crate::run::output_dir::open(&args.out, &crate::run::output_dir::RENDER, args.overwrite)?;
+    let _folder =
+        crate::run::output_dir::open(&args.out, &crate::run::output_dir::RENDER, args.overwrite)?;
     output::write_exr(&args.out.join("render.exr"), &rendered.image, job.precision)?;
     io::write_png(
         &args.out.join("render.png"),

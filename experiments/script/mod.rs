@@ -205,7 +205,8 @@ pub fn run(args: &ScriptArgs) -> Result<()> {
             .map_or("script".into(), |s| s.to_string_lossy());
         Path::new("runs").join(format!("script-{stem}"))
     });
-    let _folder = crate::run::output_dir::prepare(&out, &crate::run::output_dir::SCRIPT, args.overwrite)?;
+    let _folder =
+        crate::run::output_dir::prepare(&out, &crate::run::output_dir::SCRIPT, args.overwrite)?;
     let recorder = Rc::new(RefCell::new(Recorder::new(out.clone())));
     let engine = engine(&recorder, &params, args.pressure_precision);
     let ast = engine

@@ -237,7 +237,7 @@ fn an_experiment_sweep_has_a_point_per_id() {
     let sb = Sandbox::new();
     let f = file(&sb, "all.toml", "experiment = \"all\"\nsize = \"smoke\"\n");
     let o = sb.ok(&["sweep", f, "--out", "all", "--slurm", "--dry-run"]);
-    let ids = smokelab_app::registry::ids();
+    let ids = smokelab_app::experiment::registry::ids();
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(
         stdout.contains(&format!("#SBATCH --array=0-{}\n", ids.len() - 1)),

@@ -31,8 +31,8 @@ pub fn run_point(dir: &Path, index: usize) -> Result<()> {
     if failure.exists() {
         std::fs::remove_file(&failure)?;
     }
-    let resume =
-        matches!(plan.target, Target::Scenario(_)) && folder.join(crate::run::checkpoint::FILE).exists();
+    let resume = matches!(plan.target, Target::Scenario(_))
+        && folder.join(crate::run::checkpoint::FILE).exists();
     let mut argv: Vec<std::ffi::OsString> = vec!["smokelab".into()];
     if resume {
         argv.extend(["run".into(), "--resume".into(), folder.clone().into()]);

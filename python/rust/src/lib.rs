@@ -541,7 +541,9 @@ fn run(
     // Without `out`, a new folder of its own (as the command line's run).
     let out = match out {
         Some(out) => out,
-        None => output_dir::create_fresh(&default_run_dir(&scenario_name(kind))).map_err(app_error)?,
+        None => {
+            output_dir::create_fresh(&default_run_dir(&scenario_name(kind))).map_err(app_error)?
+        }
     };
     let args = RunArgs {
         out: Some(out.clone()),
