@@ -140,10 +140,13 @@ impl GasSummary {
     }
 }
 
-/// FNV-1a, 64 bit, of everything written through it.
+/// FNV-1a, 64 bit, of everything written through it; keeps the first
+/// error of the writer below, which postcard reports only as "The
+/// serialize buffer is full".
 struct Hashing<W> {
     inner: W,
     hash: u64,
+    error: Option<std::io::Error>,
 }
 
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
@@ -156,15 +159,31 @@ fn fnv(mut hash: u64, bytes: &[u8]) -> u64 {
     hash
 }
 
+impl<W> Hashing<W> {
+    /// Keep (a copy of) the writer's first error and pass it on.
+    fn keep(&mut self, e: std::io::Error) -> std::io::Error {
+        let copy = match e.raw_os_error() {
+            Some(code) => std::io::Error::from_raw_os_error(code),
+            None => std::io::Error::new(e.kind(), e.to_string()),
+        };
+        self.error.get_or_insert(copy);
+        e
+    }
+}
+
 impl<W: Write> Write for Hashing<W> {
     fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        let n = self.inner.write(buf)?;
-        self.hash = fnv(self.hash, &buf[..n]);
-        Ok(n)
+        match self.inner.write(buf) {
+            Ok(n) => {
+                self.hash = fnv(self.hash, &buf[..n]);
+                Ok(n)
+            }
+            Err(e) => Err(self.keep(e)),
+        }
     }
 
     fn flush(&mut self) -> std::io::Result<()> {
-        self.inner.flush()
+        self.inner.flush().map_err(|e| self.keep(e))
     }
 }
 
@@ -186,22 +205,36 @@ pub fn write_file(path: &Path, sim: &Simulation, run: &RunRecord) -> Result<()> 
         gases: state.gases.iter().map(|(_, d)| GasSummary::of(d)).collect(),
     };
     let json = serde_json::to_vec(&header)?;
-    io::write_atomic(path, |w| {
-        // Buffered before the hash: postcard writes an f32 at a time.
-        let hashing = Hashing {
-            inner: &mut *w,
-            hash: FNV_OFFSET,
-        };
-        let mut h = BufWriter::with_capacity(1 << 16, hashing);
+    io::write_atomic(path, |w| write_to(w, &json, &state))
+}
+
+/// The checkpoint file's bytes after its header `json`: magic, format,
+/// header, `state` and the checksum of all before it. An error of `w`
+/// (a full disk) is returned as the I/O error it is.
+fn write_to(w: &mut impl Write, json: &[u8], state: &SimulationState) -> Result<()> {
+    // Buffered before the hash: postcard writes an f32 at a time.
+    let hashing = Hashing {
+        inner: &mut *w,
+        hash: FNV_OFFSET,
+        error: None,
+    };
+    let mut h = BufWriter::with_capacity(1 << 16, hashing);
+    let body = (|| -> Result<u64> {
         h.write_all(MAGIC)?;
         h.write_all(&FORMAT.to_le_bytes())?;
         h.write_all(&(json.len() as u64).to_le_bytes())?;
-        h.write_all(&json)?;
-        let h = postcard::to_io(&state, h)?;
-        let hash = h.into_inner().map_err(|e| e.into_error())?.hash;
-        w.write_all(&hash.to_le_bytes())?;
-        Ok(())
-    })
+        h.write_all(json)?;
+        let h = postcard::to_io(state, &mut h)?;
+        h.flush()?;
+        Ok(h.get_ref().hash)
+    })();
+    let hash = match body {
+        Ok(hash) => hash,
+        Err(e) => return Err(h.get_mut().error.take().map_or(e, Into::into)),
+    };
+    drop(h);
+    w.write_all(&hash.to_le_bytes())?;
+    Ok(())
 }
 
 /// A checkpoint read and checked whole (name, checksum, format, version).
@@ -345,4 +378,50 @@ pub fn metrics_upto(dir: &Path, step: usize, columns: &[String]) -> Result<Strin
         kept.push_str(row);
     }
     Ok(kept)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use smokelab::scenario::hot_cold::HotColdConfig;
+    use smokelab::scenario::Scenario as _;
+
+    /// A writer with room for `room` bytes, then a full disk.
+    struct Full {
+        room: usize,
+    }
+
+    impl Write for Full {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            if self.room == 0 {
+                return Err(std::io::Error::from_raw_os_error(libc::ENOSPC));
+            }
+            let n = buf.len().min(self.room);
+            self.room -= n;
+            Ok(n)
+        }
+
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_full_disk_reads_as_one_not_as_a_full_serialize_buffer() {
+        let mut config = HotColdConfig::default();
+        config.solver.res = 8;
+        let sim = config.build().unwrap();
+        let state = sim.state();
+        let mut whole = Vec::new();
+        write_to(&mut whole, b"{}", &state).unwrap();
+        // Full in the header, in the state, and at the checksum.
+        for room in [10, whole.len() / 2, whole.len() - 4] {
+            let e = write_to(&mut Full { room }, b"{}", &state).unwrap_err();
+            let e = format!("{e:#}");
+            assert!(
+                e.to_lowercase().contains("no space left on device"),
+                "{room}: {e}"
+            );
+        }
+    }
 }

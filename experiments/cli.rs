@@ -454,8 +454,9 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
     let s = config.solver();
     args.check_selma_remap(s)?;
     init_threads(s.threads)?;
-    let out = args.out.clone().unwrap_or_else(|| default_run_dir(C::NAME));
-    let earlier = output_dir::check(&out, &output_dir::RUN, args.overwrite)?;
+    if let Some(out) = &args.out {
+        output_dir::check(out, &output_dir::RUN, args.overwrite)?;
+    }
     let render = frame_render(args, s)?;
     let mut sim = config.build()?;
     let vdb = vdb_frames(args, &sim)?;
@@ -482,8 +483,11 @@ fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
         }),
         None => None,
     };
-    earlier.remove()?;
-    io::create_output_dir(&out)?;
+    let out = match &args.out {
+        Some(out) => out.clone(),
+        None => output_dir::create_fresh(&default_run_dir(C::NAME))?,
+    };
+    let _folder = output_dir::open(&out, &output_dir::RUN, args.overwrite)?;
     set_running(&out, checkpoints.is_some());
     let opts = run_options(out.clone(), s, args.quiet, render, (vdb, args.paraview));
     let mut exact = ExactLog::of(config, &sim, &out);
@@ -565,9 +569,13 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
     }
     let exp = registry::find(id)?;
     let out = args.out.clone().unwrap_or_else(|| default_out(exp.folder));
-    let earlier = output_dir::check(&out, &output_dir::EXPERIMENT, args.overwrite)?;
+    output_dir::check(&out, &output_dir::EXPERIMENT, args.overwrite)?;
     check_clean_build(&out, args.allow_dirty)?;
-    earlier.remove()?;
+    let out = match (&args.out, size) {
+        (None, registry::Size::Smoke | registry::Size::Full) => output_dir::create_fresh(&out)?,
+        _ => out,
+    };
+    let _folder = output_dir::open(&out, &output_dir::EXPERIMENT, args.overwrite)?;
     let ctx = registry::Context {
         out: out.clone(),
         size,

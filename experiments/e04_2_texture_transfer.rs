@@ -120,19 +120,20 @@ fn run(ctx: &Context) -> Result<()> {
         .iter()
         .map(|&m| warp.reference.eval(m).abs())
         .fold(0.0, f32::max);
-    let mut w = std::io::BufWriter::new(std::fs::File::create(ctx.out.join("object_uv.obj"))?);
-    for v in &mesh.vertices {
-        writeln!(w, "v {} {} {}", v.x, v.y, v.z)?;
-    }
-    for &m in &mapped {
-        let [u, v] = sphere_uv(Vec3::ZERO, m);
-        writeln!(w, "vt {u} {v}")?;
-    }
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|i| i + 1);
-        writeln!(w, "f {a}/{a} {b}/{b} {c}/{c}")?;
-    }
-    w.flush()?;
+    io::write_atomic(&ctx.out.join("object_uv.obj"), |w| {
+        for v in &mesh.vertices {
+            writeln!(w, "v {} {} {}", v.x, v.y, v.z)?;
+        }
+        for &m in &mapped {
+            let [u, v] = sphere_uv(Vec3::ZERO, m);
+            writeln!(w, "vt {u} {v}")?;
+        }
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|i| i + 1);
+            writeln!(w, "f {a}/{a} {b}/{b} {c}/{c}")?;
+        }
+        Ok(())
+    })?;
     write_rows(
         &ctx.out.join("data.csv"),
         &[Row {

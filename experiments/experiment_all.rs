@@ -88,8 +88,8 @@ struct ExperimentRecord {
 /// past failures, then a table of what ran, how long and where it wrote —
 /// printed and saved as `parent/experiments.csv`. Every folder is checked
 /// first ([`output_dir::EXPERIMENT`]): one holding earlier outputs refuses
-/// the whole run unless `overwrite`, and then each experiment's earlier
-/// outputs are removed right before it runs.
+/// the whole run unless `overwrite`, and then each experiment's folder is
+/// locked and its earlier outputs removed right before it runs.
 pub(crate) fn run(parent: &std::path::Path, options: &AllOptions) -> Result<()> {
     let &AllOptions {
         size,
@@ -100,10 +100,8 @@ pub(crate) fn run(parent: &std::path::Path, options: &AllOptions) -> Result<()> 
     io::check_output_dir(parent)?;
     let table = parent.join("experiments.csv");
     let mut estimate = AllEstimate::read(&table);
-    let mut earlier = Vec::new();
     for exp in registry::ALL {
-        let out = parent.join(exp.folder);
-        earlier.push(output_dir::check(&out, &output_dir::EXPERIMENT, overwrite)?);
+        output_dir::check(&parent.join(exp.folder), &output_dir::EXPERIMENT, overwrite)?;
     }
     if table.is_file() && !overwrite {
         return Err(InputError::new(format!(
@@ -115,9 +113,9 @@ pub(crate) fn run(parent: &std::path::Path, options: &AllOptions) -> Result<()> 
     }
     let mut rows = Vec::new();
     let count = registry::ALL.len();
-    for (n, (exp, earlier)) in registry::ALL.iter().zip(earlier).enumerate() {
+    for (n, exp) in registry::ALL.iter().enumerate() {
         let out = parent.join(exp.folder);
-        earlier.remove()?;
+        let folder = output_dir::open(&out, &output_dir::EXPERIMENT, overwrite)?;
         // One bar per experiment, titled with its place in the whole; its
         // runs are its named stages.
         let bar = crate::progress::experiment(&format!("{}/{count} {}", n + 1, exp.id), progress);
@@ -145,6 +143,7 @@ pub(crate) fn run(parent: &std::path::Path, options: &AllOptions) -> Result<()> 
                 format!("failed: {e}")
             }
         };
+        drop(folder);
         let seconds = start.elapsed().as_secs_f64();
         estimate.done(exp.id, seconds);
         rows.push((exp, seconds, out, status));

@@ -291,6 +291,10 @@ pub struct ExportArgs {
     /// there (only `frame_NNNN.vdb`, or `frame_NNNN.vti` and `run.pvd`).
     #[arg(long)]
     pub overwrite: bool,
+    /// Export a run that is not complete (still running, killed or
+    /// failed): the frames it has saved.
+    #[arg(long)]
+    pub partial: bool,
     /// The VDB frames' `density` grid and up axis.
     #[command(flatten)]
     pub vdb: VdbFlags,
@@ -317,6 +321,10 @@ pub struct RunFolder {
 /// The parts of a run's `manifest.json` read back.
 #[derive(Deserialize)]
 struct ManifestRecord {
+    /// `complete`, `running` or `failed` (`None`: a manifest from before
+    /// the status was recorded).
+    #[serde(default)]
+    status: Option<String>,
     config: ConfigRecord,
     extra: RunRecord,
 }
@@ -344,11 +352,24 @@ struct GridFields {
     dims: [usize; 3],
 }
 
+/// Whether `name` (a gas read from a manifest) can be part of a file name
+/// in the run's folder and nothing else: not empty, no path separator,
+/// not `..` or hidden, no control character.
+fn is_plain_name(name: &str) -> bool {
+    !name.is_empty()
+        && !name.starts_with('.')
+        && !name
+            .chars()
+            .any(|c| c == '/' || c == '\\' || c.is_control())
+}
+
 impl RunFolder {
     /// Read the manifest and list the saved frames of the run in `dir`.
-    /// A missing folder, a folder without a run's manifest, or one without
-    /// saved frames is an [`InputError`] naming it.
-    pub fn open(dir: &Path) -> Result<Self, InputError> {
+    /// A missing folder, a folder without a run's manifest, one without
+    /// saved frames, one whose manifest names a gas that is not a plain file
+    /// name, or — unless `partial` — a run that is not complete (still
+    /// running, killed or failed) is an [`InputError`] naming it.
+    pub fn open(dir: &Path, partial: bool) -> Result<Self, InputError> {
         let not_a_run = |why: String| {
             InputError::new(format!(
                 "run folder {} {why}; give a folder `smokelab run` wrote",
@@ -367,6 +388,20 @@ impl RunFolder {
         let text = read_text(&manifest, "manifest")?;
         let record: ManifestRecord = serde_json::from_str(&text)
             .map_err(|e| not_a_run(format!("has a manifest.json that is not a run's ({e})")))?;
+        match record.status.as_deref() {
+            None | Some("complete") => {}
+            Some(status) if !partial => {
+                return Err(not_a_run(format!(
+                    "is not complete (its manifest says {status}: the run is still going, was killed or failed); give --partial to use the frames it has"
+                )))
+            }
+            Some(_) => {}
+        }
+        if let Some(g) = record.extra.gases.iter().find(|g| !is_plain_name(g)) {
+            return Err(not_a_run(format!(
+                "has a manifest.json naming the gas {g:?}, which is not a plain file name (no '/', '..' or leading '.')"
+            )));
+        }
         let grid = record.extra.grid;
         let geometry = VolumeGeometry::new(grid.origin.into(), grid.cell, grid.dims);
         geometry
@@ -480,7 +515,9 @@ impl RunFolder {
 /// into the run's folder.
 pub fn run(args: &ExportArgs) -> Result<()> {
     let start = std::time::Instant::now();
-    let run = RunFolder::open(&args.run_dir)?;
+    // A run still writing its folder holds it: say so first.
+    smokelab::io::folder::check_free(args.out.as_ref().unwrap_or(&args.run_dir))?;
+    let run = RunFolder::open(&args.run_dir, args.partial)?;
     let is_vdb = args.format == ExportFormat::Vdb;
     if !is_vdb && args.vdb.given() {
         return Err(InputError::new(
@@ -495,7 +532,7 @@ pub fn run(args: &ExportArgs) -> Result<()> {
         ExportFormat::Paraview => &output_dir::EXPORT_PARAVIEW,
     };
     let obstacle = run.read_obstacle()?;
-    output_dir::prepare(&out, rule, args.overwrite)?;
+    let _folder = output_dir::prepare(&out, rule, args.overwrite)?;
     let mut pvd = (!is_vdb).then(|| PvdCollection::new(out.join("run.pvd")));
     let sequence = run.sequence();
     for &(frame, n) in &sequence {

@@ -46,8 +46,8 @@ pub fn run(args: &GalleryArgs) -> Result<()> {
         None => crate::paper::repository_root()?.join("results"),
     };
     let gallery = Gallery::scan(&results)?;
-    crate::output_dir::check(&results, &crate::output_dir::GALLERY, args.overwrite)?.remove()?;
     let path = results.join("index.html");
+    crate::output_dir::check_file(&path, "gallery", args.overwrite)?;
     let html = gallery.html();
     io::write_atomic(&path, |w| {
         use std::io::Write;

@@ -272,10 +272,9 @@ pub fn run(args: &NoiseArgs) -> Result<()> {
     let spec = args.spec()?;
     let domain = args.domain()?;
     check_reach(&spec, args.size)?;
-    let earlier = crate::output_dir::check(&args.out, &crate::output_dir::NOISE, args.overwrite)?;
+    crate::output_dir::check(&args.out, &crate::output_dir::NOISE, args.overwrite)?;
     let field = spec.build()?;
-    earlier.remove()?;
-    io::create_output_dir(&args.out)?;
+    let _folder = crate::output_dir::open(&args.out, &crate::output_dir::NOISE, args.overwrite)?;
     let px = args.res.max(512);
     // Progress: the grid's samples, then the slice's (the LIC after them is
     // not counted).

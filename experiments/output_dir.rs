@@ -1,50 +1,62 @@
-//! The one rule for output folders, shared by every command that writes
-//! (`run`, `experiment`, `script`, `render`, `noise`, `export`, `gallery`,
-//! `paper`):
+//! The one rule for output folders, shared by every command that writes a
+//! folder (`run`, `run --resume`, `experiment`, `script`, `render`,
+//! `noise`, `export`):
 //!
 //! 1. the folder is a folder or does not exist yet, inside a writable
-//!    folder ([`io::check_output_dir`]);
-//! 2. a folder that holds an earlier run's outputs — files of the kinds this
-//!    command writes ([`Outputs::is_output`]) — is refused (exit 2, naming
-//!    the folder and one of the files) unless `--overwrite` is given;
-//! 3. with `--overwrite` exactly those files are removed, and only once every
-//!    other input has been checked ([`Earlier::remove`]); a file of another
-//!    kind stays (`notes.txt` beside a run's frames), and so does another
-//!    command's `manifest.json`: writing ours would replace it, so such a
-//!    folder is refused even with `--overwrite`.
+//!    folder, and not a system folder ([`io::check_output_dir`]);
+//! 2. one writer at a time: the command holds the folder's lock while it
+//!    writes ([`io::folder::OutputFolder`]), and a second one is refused
+//!    (exit 2, naming the holder);
+//! 3. smokelab records every file and folder it writes there
+//!    ([`io::folder::RECORD`]); a folder holding recorded files of the kinds
+//!    this command writes ([`Outputs::replaces`]) is refused (exit 2, naming
+//!    them) unless `--overwrite`, which removes exactly those — never a file
+//!    smokelab did not write, whatever its name — and the recorded folders
+//!    they leave empty, once every other input is checked;
+//! 4. a file smokelab did not write is never replaced: one at a name the
+//!    command writes is refused before any work when the name is fixed
+//!    ([`Outputs::fixed`]), else when the write comes to it; and a folder
+//!    with a `manifest.json` but no record (written by a smokelab that kept
+//!    none) is refused even with `--overwrite`: nothing is removed by name;
+//! 5. a default folder name (`runs/<scenario>-<seconds>`) is created
+//!    atomically, with a suffix when another run took it ([`create_fresh`]).
 //!
-//! Two more parts of the rule live with the commands that need them: an
-//! experiment at a size other than the default writes into `runs/`, never
-//! into `results/`, unless `--out` asks for it (`cli::run_experiment`), and
-//! `gallery` and `paper` look for the repository from the working folder
-//! only, never falling back to the checkout the binary was built from
-//! ([`crate::paper::repository_root`]).
+//! `gallery` and `paper` write one file each into a folder that is not
+//! theirs (`index.html`, `paper/paper.html`): an existing one is replaced
+//! only with `--overwrite` ([`check_file`]). Two more parts of the rule live
+//! with the commands that need them: an experiment at a size other than the
+//! default writes into `runs/`, never into `results/`, unless `--out` asks
+//! for it (`cli::run_experiment`), and `gallery` and `paper` look for the
+//! repository from the working folder only, never falling back to the
+//! checkout the binary was built from ([`crate::paper::repository_root`]).
 
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result};
 use smokelab::error::InputError;
-use smokelab::io;
+use smokelab::io::{self, folder};
 
 /// What one command writes into its output folder.
 #[derive(Clone, Copy, Debug)]
 pub struct Outputs {
     /// The command, for messages (`run`, `render`…).
     pub command: &'static str,
-    /// Whether a file of this name is of a kind the command writes.
-    pub is_output: fn(&str) -> bool,
-    /// Whether the command also writes folders of its own inside the
-    /// output folder (an experiment's runs): the outputs in subfolders
-    /// count and are removed too, and folders left empty are removed.
-    pub subfolders: bool,
+    /// Whether a recorded file of this name is of a kind the command
+    /// writes, and so replaced by `--overwrite`.
+    pub replaces: fn(&str) -> bool,
+    /// Names the command always writes at the top of the folder.
+    pub fixed: &'static [&'static str],
+    /// Whether the command writes the folder's `manifest.json` (a folder
+    /// holding one without a record is then refused).
+    pub writes_manifest: bool,
     /// For commands whose `manifest.json` holds `config.<key>`: a manifest
     /// without it is another command's, and refused even with `--overwrite`.
-    /// `None`: every `manifest.json` counts as an output of the command.
     pub manifest_key: Option<&'static str>,
 }
 
 /// Whether `name` is `<stem>_NNNN.<ext>` with four or more digits and `ext`
-/// one of `exts` (a saved frame: `hot_0010.npy`, `preview_0010.png`).
+/// one of `exts` (a saved frame: `hot_0010.npy`, `frame_0001.vdb`).
 pub fn is_frame_file(name: &str, exts: &[&str]) -> bool {
     exts.iter().any(|ext| {
         name.strip_suffix(ext)
@@ -54,189 +66,227 @@ pub fn is_frame_file(name: &str, exts: &[&str]) -> bool {
     })
 }
 
-/// `smokelab run` (and `run --resume`): volumes, previews, renders, VDB and
-/// VTK frames, the obstacle, metrics (and a prescribed flow's `exact.csv`),
-/// manifest and checkpoint.
+/// `smokelab run` (and `run --resume`): everything it recorded.
 pub const RUN: Outputs = Outputs {
     command: "run",
-    is_output: |name| {
-        is_frame_file(name, &["npy", "png", "exr", "vdb", "vti"])
-            || [
-                "metrics.csv",
-                "exact.csv",
-                "manifest.json",
-                "run.pvd",
-                "obstacle.npy",
-                crate::checkpoint::FILE,
-            ]
-            .contains(&name)
-    },
-    subfolders: false,
+    replaces: |_| true,
+    fixed: &[
+        "manifest.json",
+        "metrics.csv",
+        "exact.csv",
+        "obstacle.npy",
+        "run.pvd",
+        crate::checkpoint::FILE,
+    ],
+    writes_manifest: true,
     manifest_key: None,
 };
 
-/// `smokelab script`: what a run writes, plus the arrays a script names
-/// (`<name>.npy`).
+/// `smokelab script`: everything it recorded.
 pub const SCRIPT: Outputs = Outputs {
     command: "script",
-    is_output: |name| (RUN.is_output)(name) || name.ends_with(".npy"),
-    subfolders: false,
+    replaces: |_| true,
+    fixed: &["manifest.json"],
+    writes_manifest: true,
     manifest_key: None,
 };
 
-/// `smokelab experiment`: figures, tables, arrays, frames, captions and
-/// manifests, in the experiment's folder and the run folders inside it.
+/// `smokelab experiment`: everything it recorded, in its folder and the
+/// run folders inside it.
 pub const EXPERIMENT: Outputs = Outputs {
     command: "experiment",
-    is_output: |name| {
-        const KINDS: [&str; 11] = [
-            "png", "svg", "csv", "json", "md", "npy", "exr", "vdb", "vti", "pvd", "obj",
-        ];
-        name.rsplit_once('.')
-            .is_some_and(|(_, ext)| KINDS.contains(&ext))
-    },
-    subfolders: true,
+    replaces: |_| true,
+    fixed: &[],
+    writes_manifest: true,
     manifest_key: None,
 };
 
 /// `smokelab render`: the image and its manifest.
 pub const RENDER: Outputs = Outputs {
     command: "render",
-    is_output: |name| ["render.exr", "render.png", "manifest.json"].contains(&name),
-    subfolders: false,
+    replaces: |_| true,
+    fixed: &["render.exr", "render.png", "manifest.json"],
+    writes_manifest: true,
     manifest_key: Some("densities"),
 };
 
 /// `smokelab noise`: the sampled field, its slice and manifest.
 pub const NOISE: Outputs = Outputs {
     command: "noise",
-    is_output: |name| ["noise.npy", "slice.png", "manifest.json"].contains(&name),
-    subfolders: false,
+    replaces: |_| true,
+    fixed: &["noise.npy", "slice.png", "manifest.json"],
+    writes_manifest: true,
     manifest_key: Some("spec"),
 };
 
-/// `smokelab export vdb`: the OpenVDB frames.
+/// `smokelab export vdb`: the OpenVDB frames (a run's own `--vdb` frames
+/// among them).
 pub const EXPORT_VDB: Outputs = Outputs {
     command: "export vdb",
-    is_output: |name| name.starts_with("frame_") && is_frame_file(name, &["vdb"]),
-    subfolders: false,
+    replaces: |name| name.starts_with("frame_") && is_frame_file(name, &["vdb"]),
+    fixed: &[],
+    writes_manifest: false,
     manifest_key: None,
 };
 
 /// `smokelab export paraview`: the VTK frames and their time series.
 pub const EXPORT_PARAVIEW: Outputs = Outputs {
     command: "export paraview",
-    is_output: |name| {
+    replaces: |name| {
         (name.starts_with("frame_") && is_frame_file(name, &["vti"])) || name == "run.pvd"
     },
-    subfolders: false,
+    fixed: &["run.pvd"],
+    writes_manifest: false,
     manifest_key: None,
 };
 
-/// `smokelab gallery`: the page.
-pub const GALLERY: Outputs = Outputs {
-    command: "gallery",
-    is_output: |name| name == "index.html",
-    subfolders: false,
-    manifest_key: None,
-};
-
-/// `smokelab paper`: the HTML build of the paper (the Markdown is the
-/// source; only its generated blocks are rewritten).
-pub const PAPER: Outputs = Outputs {
-    command: "paper",
-    is_output: |name| name == "paper.html",
-    subfolders: false,
-    manifest_key: None,
-};
-
-/// The earlier outputs found in a folder by [`check`]: removed by
-/// [`Earlier::remove`] once everything else has been checked.
-#[derive(Debug, Default)]
-pub struct Earlier {
-    /// The outputs, sorted.
-    pub files: Vec<PathBuf>,
-    /// Subfolders holding some of them, deepest first (removed when empty).
-    folders: Vec<PathBuf>,
+/// The recorded files of `record` in `dir` that `outputs` replaces and that
+/// are there now, as recorded (relative, `/`-separated).
+fn replaced(dir: &Path, record: &BTreeSet<String>, outputs: &Outputs) -> Vec<String> {
+    record
+        .iter()
+        .filter(|e| !e.ends_with('/'))
+        .filter(|e| (outputs.replaces)(e.rsplit('/').next().unwrap_or(e)))
+        .filter(|e| std::fs::symlink_metadata(dir.join(e)).is_ok_and(|m| !m.is_dir()))
+        .cloned()
+        .collect()
 }
 
-impl Earlier {
-    /// Whether the folder held no outputs of the command.
-    pub fn is_empty(&self) -> bool {
-        self.files.is_empty()
-    }
-
-    /// Remove the earlier outputs, then the subfolders they leave empty.
-    pub fn remove(self) -> Result<()> {
-        for f in &self.files {
-            std::fs::remove_file(f)
-                .with_context(|| format!("cannot remove {} to overwrite it", f.display()))?;
-        }
-        for d in &self.folders {
-            // Only when empty: a file of another kind keeps its folder.
-            let _ = std::fs::remove_dir(d);
-        }
-        Ok(())
+/// A few of `files`, for a message.
+fn some(files: &[String]) -> String {
+    let shown: Vec<&str> = files.iter().take(3).map(String::as_str).collect();
+    let more = files.len().saturating_sub(shown.len());
+    if more > 0 {
+        format!("{} and {more} more", shown.join(", "))
+    } else {
+        shown.join(", ")
     }
 }
 
-/// The files in `dir` that `outputs` names (recursively when it writes
-/// subfolders), sorted, and the subfolders holding them; nothing when `dir`
-/// does not exist.
-pub fn earlier_outputs(dir: &Path, outputs: &Outputs) -> Earlier {
-    let mut found = Earlier::default();
-    collect(dir, outputs, &mut found, false);
-    found.files.sort();
-    found
-}
-
-fn collect(dir: &Path, outputs: &Outputs, found: &mut Earlier, nested: bool) {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return;
-    };
-    let before = found.files.len();
-    for e in entries.filter_map(|e| e.ok()) {
-        let Ok(kind) = e.file_type() else { continue };
-        let path = e.path();
-        if kind.is_dir() && outputs.subfolders {
-            collect(&path, outputs, found, true);
-        } else if kind.is_file() && e.file_name().to_str().is_some_and(outputs.is_output) {
-            found.files.push(path);
-        }
-    }
-    if nested && found.files.len() > before {
-        found.folders.push(dir.to_path_buf());
-    }
-}
-
-/// Apply the rule to `dir` for the command `outputs` describes: check that
-/// it can be an output folder, refuse another command's manifest in it,
-/// and refuse earlier outputs unless `overwrite`. Nothing is removed or
-/// created; the caller removes the returned [`Earlier`] outputs (empty
-/// unless `overwrite`) once all its input is checked, then creates `dir`.
-pub fn check(dir: &Path, outputs: &Outputs, overwrite: bool) -> Result<Earlier, InputError> {
-    io::check_output_dir(dir)?;
+/// The rule's checks on `dir`, the lock aside: what `--overwrite` would
+/// remove, or the refusal.
+fn earlier(dir: &Path, outputs: &Outputs, overwrite: bool) -> Result<Vec<String>, InputError> {
     if let Some(key) = outputs.manifest_key {
         check_own_manifest(dir, key, outputs.command)?;
     }
-    let earlier = earlier_outputs(dir, outputs);
-    if !earlier.is_empty() && !overwrite {
-        return Err(InputError::new(format!(
-            "output folder {} holds {} files of an earlier run (e.g. {}); give another --out, or --overwrite to replace them (only the files `smokelab {}` writes are removed)",
+    let record = folder::read_record(dir)?;
+    let foreign = |name: &str| {
+        InputError::new(format!(
+            "output folder {} holds {name}, which smokelab did not write; `smokelab {}` would replace it: move it away, or give another --out",
             dir.display(),
-            earlier.files.len(),
-            earlier.files[0].display(),
             outputs.command
+        ))
+    };
+    let Some(record) = record else {
+        if outputs.writes_manifest && std::fs::symlink_metadata(dir.join("manifest.json")).is_ok() {
+            return Err(InputError::new(format!(
+                "output folder {} holds a manifest.json but no record of the files smokelab wrote there ({}; a smokelab older than 0.4 kept none, or the folder is not smokelab's); nothing is removed by name, even with --overwrite: move its files away, or give another --out",
+                dir.display(),
+                folder::RECORD
+            )));
+        }
+        if let Some(name) = outputs
+            .fixed
+            .iter()
+            .find(|n| std::fs::symlink_metadata(dir.join(n)).is_ok())
+        {
+            return Err(foreign(name));
+        }
+        return Ok(Vec::new());
+    };
+    if let Some(name) = outputs
+        .fixed
+        .iter()
+        .find(|n| !record.contains(**n) && std::fs::symlink_metadata(dir.join(n)).is_ok())
+    {
+        return Err(foreign(name));
+    }
+    let files = replaced(dir, &record, outputs);
+    if !files.is_empty() && !overwrite {
+        return Err(InputError::new(format!(
+            "output folder {} holds {} files an earlier smokelab wrote ({}); give another --out, or --overwrite to replace exactly those (files smokelab did not write stay)",
+            dir.display(),
+            files.len(),
+            some(&files)
         )));
     }
-    Ok(earlier)
+    Ok(files)
 }
 
-/// [`check`], then remove the earlier outputs and create `dir`: for
-/// commands that have checked all their other input already.
-pub fn prepare(dir: &Path, outputs: &Outputs, overwrite: bool) -> Result<()> {
-    check(dir, outputs, overwrite)?.remove()?;
-    io::create_output_dir(dir)
+/// Apply the rule to `dir` for the command `outputs` describes, before any
+/// work: a usable folder, not being written by another process, without
+/// another command's manifest or a file smokelab did not write at a name it
+/// writes, and without earlier outputs unless `overwrite`. Nothing is
+/// removed or created; [`open`] does that once all input is checked.
+pub fn check(dir: &Path, outputs: &Outputs, overwrite: bool) -> Result<(), InputError> {
+    io::check_output_dir(dir)?;
+    folder::check_free(dir)?;
+    earlier(dir, outputs, overwrite).map(|_| ())
+}
+
+/// Create and lock `dir`, check the rule again under the lock, and remove
+/// the earlier outputs `overwrite` replaces: for commands that have checked
+/// all their other input already ([`check`]). The folder records what is
+/// written in it until the returned guard is dropped.
+pub fn open(dir: &Path, outputs: &Outputs, overwrite: bool) -> Result<folder::OutputFolder> {
+    io::check_output_dir(dir)?;
+    // Before the lock creates the record: a folder without one is checked
+    // as it is.
+    earlier(dir, outputs, overwrite)?;
+    let open = folder::OutputFolder::open(dir)?;
+    let files = earlier(dir, outputs, overwrite)?;
+    open.remove(&files)?;
+    Ok(open)
+}
+
+/// [`check`] then [`open`]: for commands whose input is all checked.
+pub fn prepare(dir: &Path, outputs: &Outputs, overwrite: bool) -> Result<folder::OutputFolder> {
+    check(dir, outputs, overwrite)?;
+    open(dir, outputs, overwrite)
+}
+
+/// Create the default folder `base` (`runs/hot-cold-<seconds>`) or, when
+/// another process made it first, `base-2`, `base-3`…: each attempt
+/// creates the folder exclusively, so two runs never share one.
+pub fn create_fresh(base: &Path) -> Result<PathBuf> {
+    if let Some(parent) = base.parent().filter(|p| !p.as_os_str().is_empty()) {
+        io::check_output_dir(parent)?;
+        io::create_output_dir(parent)?;
+    }
+    for n in 1.. {
+        let dir = match n {
+            1 => base.to_path_buf(),
+            n => {
+                let mut name = base.as_os_str().to_owned();
+                name.push(format!("-{n}"));
+                PathBuf::from(name)
+            }
+        };
+        match std::fs::create_dir(&dir) {
+            Ok(()) => return Ok(dir),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
+            Err(e) => {
+                return Err(e)
+                    .with_context(|| format!("cannot create output folder {}", dir.display()))
+            }
+        }
+    }
+    unreachable!("some suffix is free")
+}
+
+/// `gallery` and `paper`: `path`, the one file the command writes into a
+/// folder that is not its own, is replaced only with `overwrite`.
+pub fn check_file(path: &Path, command: &str, overwrite: bool) -> Result<(), InputError> {
+    if let Some(dir) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        io::check_output_dir(dir)?;
+    }
+    if std::fs::symlink_metadata(path).is_ok() && !overwrite {
+        return Err(InputError::new(format!(
+            "{} exists (an earlier `smokelab {command}`'s?); give --overwrite to replace it",
+            path.display()
+        )));
+    }
+    Ok(())
 }
 
 /// Refuse `out` when it holds a `manifest.json` that is not `command`'s
@@ -265,9 +315,24 @@ pub fn check_own_manifest(out: &Path, own_key: &str, command: &str) -> Result<()
 mod tests {
     use super::*;
 
+    fn write(p: &Path) {
+        io::create_output_dir(p.parent().unwrap()).unwrap();
+        io::write_atomic(p, |w| Ok(std::io::Write::write_all(w, b"x")?)).unwrap();
+    }
+
     fn touch(p: &Path) {
         std::fs::create_dir_all(p.parent().unwrap()).unwrap();
         std::fs::write(p, b"x").unwrap();
+    }
+
+    fn names(d: &Path) -> Vec<String> {
+        let mut n: Vec<String> = std::fs::read_dir(d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .filter(|n| !n.starts_with(".smokelab"))
+            .collect();
+        n.sort();
+        n
     }
 
     #[test]
@@ -280,52 +345,81 @@ mod tests {
     }
 
     #[test]
-    fn a_used_folder_is_refused_and_overwrite_removes_only_the_commands_files() {
+    fn overwrite_removes_exactly_the_recorded_files_whatever_their_names() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
+        // The user's files, named as frames are.
         for f in [
-            "hot_0010.npy",
-            "preview_0010.png",
-            "manifest.json",
+            "IMG_1234.png",
+            "scan_00012.npy",
             "notes.txt",
+            "sub/data.csv",
         ] {
             touch(&d.join(f));
         }
-        let e = check(d, &RUN, false).unwrap_err().to_string();
+        {
+            let _open = open(d, &EXPERIMENT, false).unwrap();
+            for f in ["hot_0010.npy", "a/manifest.json", "a/b/x.png"] {
+                write(&d.join(f));
+            }
+        }
+        let e = check(d, &EXPERIMENT, false).unwrap_err().to_string();
         assert!(
-            e.contains(&d.display().to_string()) && e.contains("--overwrite"),
+            e.contains("holds 3 files") && e.contains("a/b/x.png") && e.contains("--overwrite"),
             "{e}"
         );
-        let earlier = check(d, &RUN, true).unwrap();
-        assert_eq!(earlier.files.len(), 3);
-        earlier.remove().unwrap();
-        let left: Vec<_> = std::fs::read_dir(d)
-            .unwrap()
-            .map(|e| e.unwrap().file_name())
-            .collect();
-        assert_eq!(left, vec![std::ffi::OsString::from("notes.txt")]);
-        // Now it holds nothing of a run's: accepted without --overwrite.
-        assert!(check(d, &RUN, false).unwrap().is_empty());
+        drop(open(d, &EXPERIMENT, true).unwrap());
+        assert_eq!(
+            names(d),
+            ["IMG_1234.png", "notes.txt", "scan_00012.npy", "sub"]
+        );
+        assert!(d.join("sub/data.csv").is_file());
+        // Now it holds nothing smokelab wrote: accepted without --overwrite.
+        check(d, &EXPERIMENT, false).unwrap();
     }
 
     #[test]
-    fn an_experiment_clears_its_run_folders_and_keeps_foreign_files() {
+    fn a_file_smokelab_did_not_write_is_never_replaced() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
-        for f in [
-            "data.csv",
-            "a/manifest.json",
-            "a/hot_0010.npy",
-            "b/keep.txt",
-            "b/x.png",
-        ] {
+        touch(&d.join("metrics.csv"));
+        let e = check(d, &RUN, true).unwrap_err().to_string();
+        assert!(
+            e.contains("metrics.csv, which smokelab did not write"),
+            "{e}"
+        );
+        let _open = open(d, &SCRIPT, false).unwrap();
+        let e = io::write_atomic(&d.join("metrics.csv"), |_| Ok(()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("did not write"), "{e}");
+        assert_eq!(std::fs::read(d.join("metrics.csv")).unwrap(), b"x");
+    }
+
+    #[test]
+    fn a_folder_without_a_record_is_refused_not_cleared_by_name() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        for f in ["manifest.json", "hot_0010.npy"] {
             touch(&d.join(f));
         }
-        assert!(check(d, &EXPERIMENT, false).is_err());
-        check(d, &EXPERIMENT, true).unwrap().remove().unwrap();
-        assert!(!d.join("a").exists(), "an emptied run folder stays");
-        assert!(d.join("b/keep.txt").is_file() && !d.join("b/x.png").exists());
-        assert!(!d.join("data.csv").exists());
+        let e = check(d, &RUN, true).unwrap_err().to_string();
+        assert!(
+            e.contains("no record") && e.contains("nothing is removed"),
+            "{e}"
+        );
+        assert!(open(d, &RUN, true).is_err());
+        assert_eq!(names(d), ["hot_0010.npy", "manifest.json"]);
+    }
+
+    #[test]
+    fn default_folders_get_a_suffix_instead_of_being_shared() {
+        let dir = tempfile::tempdir().unwrap();
+        let base = dir.path().join("runs/hot-cold-7");
+        let a = create_fresh(&base).unwrap();
+        let b = create_fresh(&base).unwrap();
+        assert_eq!(a, base);
+        assert_eq!(b, dir.path().join("runs/hot-cold-7-2"));
     }
 
     #[test]
@@ -338,12 +432,5 @@ mod tests {
         .unwrap();
         let e = check(dir.path(), &RENDER, true).unwrap_err().to_string();
         assert!(e.contains("did not write"), "{e}");
-        std::fs::write(
-            dir.path().join("manifest.json"),
-            r#"{"config": {"densities": []}}"#,
-        )
-        .unwrap();
-        assert!(check(dir.path(), &RENDER, false).is_err());
-        assert_eq!(check(dir.path(), &RENDER, true).unwrap().files.len(), 1);
     }
 }

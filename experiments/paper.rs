@@ -76,12 +76,7 @@ pub fn run(args: &PaperArgs) -> Result<()> {
         }
         None => repository_root()?,
     };
-    let earlier = crate::output_dir::check(
-        &root.join("paper"),
-        &crate::output_dir::PAPER,
-        args.overwrite,
-    )?;
-    earlier.remove()?;
+    crate::output_dir::check_file(&root.join("paper/paper.html"), "paper", args.overwrite)?;
     build(&root)
 }
 

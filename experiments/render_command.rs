@@ -53,6 +53,10 @@ pub struct RenderArgs {
     /// The same as the RUN_DIR argument.
     #[arg(long = "from", value_name = "RUN_DIR")]
     pub from: Option<PathBuf>,
+    /// Render from a run that is not complete (still running, killed or
+    /// failed): its frames saved so far.
+    #[arg(long)]
+    pub partial: bool,
     /// The saved frame of the run to render (default: its last).
     #[arg(long, allow_negative_numbers = true)]
     pub frame: Option<usize>,
@@ -136,7 +140,7 @@ struct RenderJob {
 pub fn run(args: &RenderArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let job = resolve(args)?;
-    let earlier = crate::output_dir::check(&args.out, &crate::output_dir::RENDER, args.overwrite)?;
+    crate::output_dir::check(&args.out, &crate::output_dir::RENDER, args.overwrite)?;
     let bar = progress::bar(
         expected_queries(&job.scene, &job.settings),
         "density samples",
@@ -148,8 +152,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let rendered = render(&counted, &job.settings)?;
     bar.finish_and_clear();
-    earlier.remove()?;
-    io::create_output_dir(&args.out)?;
+    let _folder = crate::output_dir::open(&args.out, &crate::output_dir::RENDER, args.overwrite)?;
     output::write_exr(&args.out.join("render.exr"), &rendered.image, job.precision)?;
     io::write_png(
         &args.out.join("render.png"),
@@ -233,7 +236,7 @@ fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
                 b.display()
             )))
         }
-        (Some(dir), None) | (None, Some(dir)) => Some(RunFolder::open(dir)?),
+        (Some(dir), None) | (None, Some(dir)) => Some(RunFolder::open(dir, args.partial)?),
         (None, None) => None,
     };
     let densities = volume_paths(args, run.as_ref())?;

@@ -57,6 +57,15 @@ pub(crate) fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
             InputError::new(format!("--resume {} is not a run folder", dir.display())).into(),
         );
     }
+    io::folder::check_free(dir)?;
+    if io::folder::read_record(dir)?.is_none() {
+        return Err(InputError::new(format!(
+            "{} has no record of the files smokelab wrote there ({}; a smokelab older than 0.4 kept none); resuming would replace files by their names: start the run again instead",
+            dir.display(),
+            io::folder::RECORD
+        ))
+        .into());
+    }
     let checkpoint = Checkpoint::read(dir)?;
     if checkpoint.commit() != io::manifest::BUILD_COMMIT {
         eprintln!(
@@ -104,13 +113,24 @@ fn resume_config<C: Scenario>(
             ))
         })?;
     // Through text, as the manifest was written (an f32 as its shortest decimal).
-    let want: serde_json::Value = serde_json::from_str(&serde_json::to_string(&original)?)?;
-    if manifest["config"] != want {
+    let mut want: serde_json::Value = serde_json::from_str(&serde_json::to_string(&original)?)?;
+    let mut have = manifest["config"].clone();
+    // `frames` is the one key a resume changes (`--frames N`): a resume
+    // interrupted before its first checkpoint left the new count in the
+    // manifest and the old one in the checkpoint. The manifest's is the
+    // count last asked for.
+    let asked_frames = have.get("frames").and_then(|f| f.as_u64());
+    for config in [&mut want, &mut have] {
+        if let Some(c) = config.as_object_mut() {
+            c.remove("frames");
+        }
+    }
+    if have != want {
         let differ: Vec<&String> = want
             .as_object()
             .map(|w| {
                 w.keys()
-                    .filter(|k| manifest["config"][k.as_str()] != w[k.as_str()])
+                    .filter(|k| have[k.as_str()] != w[k.as_str()])
                     .collect()
             })
             .unwrap_or_default();
@@ -138,10 +158,19 @@ fn resume_config<C: Scenario>(
         .into());
     }
     let mut layers = vec![("checkpoint".to_string(), recorded)];
-    if let Some(frames) = args.solver.frames {
+    let frames = args
+        .solver
+        .frames
+        .or(asked_frames.and_then(|f| usize::try_from(f).ok()));
+    if let Some(frames) = frames {
         let mut t = toml::Table::new();
         t.insert("frames".into(), toml::Value::Integer(frames as i64));
-        layers.push(("--frames".into(), t));
+        let from = if args.solver.frames.is_some() {
+            "--frames"
+        } else {
+            "manifest"
+        };
+        layers.push((from.into(), t));
     }
     let config: C = config::resolve(&layers, &scenario_keys())?;
     let s = config.solver();
@@ -169,10 +198,13 @@ fn resume_config<C: Scenario>(
         ))
     })?;
     let metrics = crate::checkpoint::metrics_upto(dir, step, &run::metric_columns(&sim))?;
-    // Checked: now replace what the killed run wrote after the checkpoint.
+    // Checked: now hold the folder and replace what the killed run wrote
+    // after the checkpoint (only files the record names as smokelab's).
+    let folder = io::folder::OutputFolder::open(dir)?;
     let save_every = s.save_every;
-    for f in output_dir::earlier_outputs(dir, &output_dir::RUN).files {
-        let name = f.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    let mut after = Vec::new();
+    for f in folder.entries() {
+        let name = f.as_str();
         let number = name
             .rsplit_once('_')
             .and_then(|(_, rest)| rest.split_once('.'))
@@ -182,15 +214,17 @@ fn resume_config<C: Scenario>(
         // straddling it is rewritten by the resumed run).
         let exchange =
             name.starts_with("frame_") && (name.ends_with(".vdb") || name.ends_with(".vti"));
-        let after = number.is_some_and(|n| match exchange {
-            true => n * save_every.max(1) > step,
-            false => n > step,
-        });
-        if after {
-            std::fs::remove_file(&f)
-                .map_err(|e| anyhow::anyhow!("cannot remove {} to resume: {e}", f.display()))?;
+        let later = !name.contains('/')
+            && output_dir::is_frame_file(name, &["npy", "png", "exr", "vdb", "vti"])
+            && number.is_some_and(|n| match exchange {
+                true => n * save_every.max(1) > step,
+                false => n > step,
+            });
+        if later {
+            after.push(f);
         }
     }
+    folder.remove(&after)?;
     for f in killed_temporary_files(dir) {
         std::fs::remove_file(&f)
             .map_err(|e| anyhow::anyhow!("cannot remove {} to resume: {e}", f.display()))?;
@@ -229,16 +263,12 @@ fn resume_config<C: Scenario>(
     Ok(())
 }
 
-/// Temporary files a killed process left in `dir`: `<name>.<pid>-<n>.tmp`
-/// ([`io::write_atomic`]; a SIGKILL leaves no time to remove them).
+/// Temporary files a killed process left in `dir`:
+/// `.<name>.XXXXXX.smokelab-tmp` ([`io::write_atomic`]; a SIGKILL leaves no
+/// time to remove them). Called with the folder's lock held, so none is
+/// another writer's.
 fn killed_temporary_files(dir: &std::path::Path) -> Vec<PathBuf> {
-    let numbered = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    let is_temporary = |name: &str| {
-        name.strip_suffix(".tmp")
-            .and_then(|stem| stem.rsplit_once('.'))
-            .and_then(|(_, tag)| tag.split_once('-'))
-            .is_some_and(|(pid, n)| numbered(pid) && numbered(n))
-    };
+    let is_temporary = io::is_temporary_file;
     std::fs::read_dir(dir)
         .into_iter()
         .flatten()

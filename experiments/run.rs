@@ -708,6 +708,7 @@ impl<F: FnMut(&Simulation, usize) -> Result<()>> StepLoop<'_, F> {
         // from its last frame (`--resume --frames N`).
         if let Some(c) = checkpoint {
             timed(&mut times.output, || {
+                self.csv.sync()?;
                 checkpoint::write(&opts.out, sim, &c.record)
             })?;
         }

@@ -63,32 +63,43 @@ pub fn read_rows<T: DeserializeOwned>(path: &Path) -> Result<Vec<T>> {
         .collect()
 }
 
-/// A CSV file appended one row at a time, each flushed to disk.
+/// Open the log at `path` to append, never through a symbolic link.
+fn open_append(path: &Path) -> Result<File> {
+    let mut o = std::fs::OpenOptions::new();
+    o.append(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt as _;
+        o.custom_flags(libc::O_NOFOLLOW);
+    }
+    o.open(path)
+        .with_context(|| format!("cannot append to {}", path.display()))
+}
+
+/// A CSV file appended one row at a time, each flushed to the system;
+/// [`Log::sync`] takes the rows to disk.
 pub struct Log {
     path: PathBuf,
     csv: csv::Writer<BufWriter<File>>,
 }
 
 impl Log {
-    /// Create `path` (replacing it) with the header `columns`.
+    /// Create `path` (replacing it, atomically) with the header `columns`.
     pub fn create(path: PathBuf, columns: &[String]) -> Result<Self> {
-        let file =
-            File::create(&path).with_context(|| format!("cannot create {}", path.display()))?;
-        let mut csv = csv::WriterBuilder::new()
-            .has_headers(false)
-            .from_writer(BufWriter::new(file));
-        csv.write_record(columns)?;
-        let mut log = Self { path, csv };
-        log.flush()?;
-        Ok(log)
+        io::write_atomic(&path, |w| {
+            let mut csv = csv::WriterBuilder::new().has_headers(false).from_writer(w);
+            csv.write_record(columns)?;
+            csv.flush()?;
+            Ok(())
+        })?;
+        Self::append(path)
     }
 
-    /// Open `path`, a log [`Self::create`] wrote, to append rows after its last.
+    /// Open `path`, a log [`Self::create`] wrote, to append rows after its
+    /// last (a file smokelab did not write, or a symbolic link, is refused).
     pub fn append(path: PathBuf) -> Result<Self> {
-        let file = std::fs::OpenOptions::new()
-            .append(true)
-            .open(&path)
-            .with_context(|| format!("cannot append to {}", path.display()))?;
+        io::folder::claim(&path)?;
+        let file = open_append(&path)?;
         let csv = csv::WriterBuilder::new()
             .has_headers(false)
             .from_writer(BufWriter::new(file));
@@ -108,6 +119,17 @@ impl Log {
         self.csv
             .flush()
             .with_context(|| format!("cannot write {}", self.path.display()))
+    }
+
+    /// Flush and sync the rows so far to disk (before a checkpoint, whose
+    /// resume needs them).
+    pub fn sync(&mut self) -> Result<()> {
+        self.flush()?;
+        self.csv
+            .get_ref()
+            .get_ref()
+            .sync_data()
+            .with_context(|| format!("cannot sync {} to disk", self.path.display()))
     }
 }
 
