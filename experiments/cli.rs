@@ -575,20 +575,28 @@ fn run_experiment(args: &ExperimentArgs) -> Result<()> {
         (None, registry::Size::Smoke | registry::Size::Full) => output_dir::create_fresh(&out)?,
         _ => out,
     };
-    let _folder = output_dir::open(&out, &output_dir::EXPERIMENT, args.overwrite)?;
+    let existed = out.exists();
+    let folder = output_dir::open(&out, &output_dir::EXPERIMENT, args.overwrite)?;
     let ctx = registry::Context {
         out: out.clone(),
         size,
         progress: !args.quiet,
     };
     let start = std::time::Instant::now();
-    {
+    let outcome = {
         let _bar = crate::progress::experiment(exp.id, !args.quiet);
         match &args.peers {
-            Some(python) => crate::ep_1_perf::run_with_peers(&ctx, Some(python))?,
-            None => (exp.run)(&ctx)?,
+            Some(python) => crate::ep_1_perf::run_with_peers(&ctx, Some(python)),
+            None => (exp.run)(&ctx),
         }
+    };
+    if outcome.is_err() && !existed {
+        // Input the experiment checks itself (P-1's `--peers`) leaves no
+        // folder behind when it is refused before anything is written.
+        drop(folder);
+        output_dir::remove_if_unwritten(&out);
     }
+    outcome?;
     println!(
         "experiment {} ({}) finished in {:.1} s; wrote {}",
         exp.id,

@@ -239,6 +239,25 @@ pub fn open(dir: &Path, outputs: &Outputs, overwrite: bool) -> Result<folder::Ou
     Ok(open)
 }
 
+/// Remove the folder `dir` when it holds nothing but smokelab's own
+/// bookkeeping (the record and the lock [`open`] made): what a command
+/// that created the folder and failed before writing any output leaves.
+/// A folder holding anything else stays as it is.
+pub fn remove_if_unwritten(dir: &Path) {
+    let bookkeeping = [folder::RECORD, folder::LOCK];
+    let only_bookkeeping = std::fs::read_dir(dir).is_ok_and(|entries| {
+        entries
+            .flatten()
+            .all(|e| bookkeeping.iter().any(|b| e.file_name() == *b))
+    });
+    if only_bookkeeping {
+        for name in bookkeeping {
+            let _ = std::fs::remove_file(dir.join(name));
+        }
+        let _ = std::fs::remove_dir(dir);
+    }
+}
+
 /// [`check`] then [`open`]: for commands whose input is all checked.
 pub fn prepare(dir: &Path, outputs: &Outputs, overwrite: bool) -> Result<folder::OutputFolder> {
     check(dir, outputs, overwrite)?;

@@ -331,11 +331,21 @@ fn bad_resumes_exit_2_and_write_nothing() {
 #[test]
 fn an_interrupted_resume_can_be_resumed_again() {
     let sb = Sandbox::new();
-    sb.ok(&[run_args("16", &[]), vec!["--out", "full"]].concat());
+    // Metrics and diagnostics every 4th step: the first leg's last step
+    // (4, diagnosed as a run's last step is) is then on the cadence of the
+    // uninterrupted run.
+    let cadence = ["--metrics-every", "4", "--diagnostics-every", "4"];
+    let leg = |frames| {
+        let mut a = vec!["run", "hot-cold", "--res", "16", "--frames", frames];
+        a.extend(["--save-every", "4", "--quiet"]);
+        a.extend(cadence);
+        a
+    };
+    sb.ok(&[leg("16"), vec!["--out", "full"]].concat());
     // Checkpoints only at the last step: the resume below writes none
     // before it is killed.
     sb.ok(&[
-        run_args("4", &[]),
+        leg("4"),
         vec!["--checkpoint-every", "100000", "--out", "part"],
     ]
     .concat());
