@@ -87,6 +87,6 @@ pub fn execute(cli: Cli) -> Result<()> {
         Some(Command::Paper(args)) => crate::publish::paper::run(&args),
         Some(Command::Script(args)) => crate::script::run(&args),
         Some(Command::Gallery(args)) => crate::publish::gallery::run(&args),
-        Some(Command::Sweep(args)) => crate::cli::sweep::run(args),
+        Some(Command::Sweep(args)) => sweep::run(args, |argv| execute(Cli::try_parse_from(argv)?)),
     }
 }

@@ -344,7 +344,11 @@ fn an_interrupted_resume_can_be_resumed_again() {
     sb.ok(&[leg("16"), vec!["--out", "full"]].concat());
     // Checkpoints only at the last step: the resume below writes none
     // before it is killed.
-    sb.ok(&[leg("4"), vec!["--checkpoint-every", "100000", "--out", "part"]].concat());
+    sb.ok(&[
+        leg("4"),
+        vec!["--checkpoint-every", "100000", "--out", "part"],
+    ]
+    .concat());
     let part = sb.join("part");
     let mut child = Command::new(env!("CARGO_BIN_EXE_smokelab"))
         .args(["run", "--resume", "part", "--frames", "100000", "--quiet"])

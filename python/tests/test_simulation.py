@@ -206,7 +206,7 @@ def test_run_writes_what_the_command_line_writes(tmp_path):
         assert np.array_equal(np.load(out / name), np.load(tmp_path / "cli" / name)), name
     run = smokelab.xr.open_run(out)
     assert list(run.volumes.step.values) == [2, 4]
-    with pytest.raises(ValueError, match="holds 16 files of an earlier run"):
+    with pytest.raises(ValueError, match="holds 16 files an earlier smokelab wrote"):
         smokelab.run("hot-cold", out=out, res=16, frames=4)
 
 

@@ -23,7 +23,7 @@ pub fn failure_file(dir: &Path, point: &Point) -> std::path::PathBuf {
         .folder
         .file_name()
         .map_or_else(|| point.index.to_string(), |n| n.to_string_lossy().into());
-    dir.join(super::LOGS).join(format!("{name}.failed"))
+    dir.join(super::layout::LOGS).join(format!("{name}.failed"))
 }
 
 /// The `status` of the manifest in `folder`, if it has a readable one.

@@ -30,7 +30,7 @@ pub fn run(dir: &Path, plan: &mut Plan, indices: &[usize], jobs: usize) -> Resul
                 .file_name()
                 .unwrap_or_default()
                 .to_string_lossy();
-            let log_path = dir.join(super::LOGS).join(format!("{name}.log"));
+            let log_path = dir.join(super::layout::LOGS).join(format!("{name}.log"));
             let log = std::fs::OpenOptions::new()
                 .create(true)
                 .append(true)
@@ -86,7 +86,7 @@ pub fn run(dir: &Path, plan: &mut Plan, indices: &[usize], jobs: usize) -> Resul
             unfinished.len(),
             indices.len(),
             unfinished.join(", "),
-            dir.join(super::LOGS).display()
+            dir.join(super::layout::LOGS).display()
         );
     }
     Ok(())

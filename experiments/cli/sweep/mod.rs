@@ -10,6 +10,7 @@
 //! points' folders, so they work whichever executor ran them.
 
 pub mod gather;
+pub mod layout;
 pub mod local;
 pub mod plan;
 pub mod point;
@@ -22,11 +23,9 @@ use clap::{Args, Subcommand};
 use smokelab::error::InputError;
 use smokelab::io;
 
+use layout::LOGS;
 use plan::{Plan, State};
 use slurm::SlurmOptions;
-
-/// The folder of the points' logs (and of `run-point`'s failure records).
-pub const LOGS: &str = "logs";
 
 /// `smokelab sweep`.
 #[derive(Debug, Args)]
@@ -113,12 +112,13 @@ impl Executor {
     }
 }
 
-/// Run `smokelab sweep …`.
-pub fn run(args: SweepArgs) -> Result<()> {
+/// Run `smokelab sweep …`; `run_cli` runs a point's own command line
+/// (`smokelab run …` or `smokelab experiment …`) in this process.
+pub fn run(args: SweepArgs, run_cli: point::RunCli) -> Result<()> {
     match args.action {
         Some(SweepAction::Status { dir }) => gather::status(&dir),
         Some(SweepAction::Gather { dir }) => gather::gather(&dir),
-        Some(SweepAction::RunPoint { dir, index }) => point::run_point(&dir, index),
+        Some(SweepAction::RunPoint { dir, index }) => point::run_point(&dir, index, run_cli),
         Some(SweepAction::Resubmit { dir, executor }) => resubmit(&dir, &executor),
         None => {
             let file = args
@@ -142,7 +142,7 @@ fn start(file: &Path, out: Option<PathBuf>, executor: &Executor) -> Result<()> {
     });
     io::check_output_dir(&dir)?;
     if std::fs::read_dir(&dir).is_ok_and(|mut d| d.next().is_some()) {
-        let hint = match dir.join(plan::INDEX).exists() {
+        let hint = match dir.join(layout::INDEX).exists() {
             true => format!(
                 "; `smokelab sweep resubmit {}` finishes the sweep it holds",
                 dir.display()

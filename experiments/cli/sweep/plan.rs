@@ -21,12 +21,10 @@ use smokelab::scenario::slab_box::SlabBoxConfig;
 use smokelab::scenario::taylor_green::TaylorGreenConfig;
 use smokelab::scenario::{Scenario, ScenarioKind};
 
+use super::layout::INDEX;
 use super::slurm::SlurmOptions;
 use crate::cli::run::RunArgs;
 use crate::experiment::registry;
-
-/// The index file in a sweep's folder.
-pub const INDEX: &str = "sweep.json";
 
 /// Checkpoint cadence of a scenario point when the file gives none.
 const DEFAULT_CHECKPOINT_EVERY: usize = 10;

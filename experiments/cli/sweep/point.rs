@@ -12,14 +12,16 @@
 use std::path::Path;
 
 use anyhow::Result;
-use clap::Parser as _;
 
 use super::gather::{failure_file, state};
 use super::plan::{Plan, State, Target};
-use crate::cli::Cli;
+
+/// Parses and runs a `smokelab …` command line in this process (the command
+/// line's own `execute`, handed down so that this room does not import it).
+pub type RunCli = fn(Vec<std::ffi::OsString>) -> Result<()>;
 
 /// Run point `index` of the sweep in `dir`.
-pub fn run_point(dir: &Path, index: usize) -> Result<()> {
+pub fn run_point(dir: &Path, index: usize, run_cli: RunCli) -> Result<()> {
     let plan = Plan::read(dir)?;
     let point = plan.point(index)?.clone();
     let folder = dir.join(&point.folder);
@@ -50,8 +52,7 @@ pub fn run_point(dir: &Path, index: usize) -> Result<()> {
             .collect::<Vec<_>>()
             .join(" ")
     );
-    let cli = Cli::try_parse_from(&argv)?;
-    crate::cli::execute(cli).inspect_err(|e| {
+    run_cli(argv).inspect_err(|e| {
         // The error in the log and, for `status`, beside the logs; a run
         // that got as far as its manifest also records it there.
         let _ = std::fs::write(&failure, format!("{e:#}\n"));

@@ -113,9 +113,9 @@ pub fn script(dir: &Path, exe: &Path, points: usize, options: &SlurmOptions) -> 
          #SBATCH --array=0-{last}\n\
          #SBATCH --output={logs}/slurm-%A_%a.log\n\
          #SBATCH --open-mode=append\n",
-        index = dir.join(super::plan::INDEX).display(),
+        index = dir.join(super::layout::INDEX).display(),
         last = points.saturating_sub(1),
-        logs = dir.join(super::LOGS).display(),
+        logs = dir.join(super::layout::LOGS).display(),
     );
     let lines = [
         options
