@@ -21,7 +21,7 @@ fn main() -> ExitCode {
         let removed = smokelab::io::remove_temporary_files();
         eprintln!(
             "interrupted; removed {removed} partly written files. {}",
-            smokelab_app::cli::interrupt_hint()
+            smokelab_app::cli::process::interrupt_hint()
         );
         std::process::exit(130);
     })

@@ -9,7 +9,8 @@
 //! ```
 //!
 //! The velocity lives on the faces of the cells ([`FaceGrid`], the MAC grid;
-//! DESIGN.md "Velocity lives on faces"), the densities at the cell centres.
+//! `ARCHITECTURE.md`, "One step, following the data"), the densities at the
+//! cell centres.
 //! `fftdivfree` is the exact pressure solve of [`PressureSolver`].
 //!
 //! [`Simulation::try_step`] is those lines as verbs, each one call:
@@ -44,7 +45,7 @@ use crate::domain::Domain;
 use crate::error::{check_non_negative, InputError};
 use crate::field::{Scalar, VectorField};
 use crate::forces;
-use crate::grid::{BoxKind, FaceGrid, ScalarGrid};
+use crate::grid::{BoxKind, FaceGrid, Interpolant, ScalarGrid};
 use crate::pressure::obstacles::{CgReport, ObstacleProjection, TOLERANCE};
 use crate::pressure::{PressurePrecision, PressureSolver};
 use crate::timing::{timed, StageTimes};
@@ -190,6 +191,9 @@ pub struct StepParams {
     pub gravity: Vec3,
     /// Backtrace of the semi-Lagrangian steps.
     pub backtrace: Backtrace,
+    /// How every trace reads the velocity between its faces
+    /// ([`Interpolant`]); set on the velocity at the start of every step.
+    pub interpolant: Interpolant,
     /// Vorticity confinement ε (Fedkiw, Stam & Jensen 2001, eq 11;
     /// [`crate::confinement`]), 0 = off.
     pub confinement: f32,
@@ -252,12 +256,14 @@ impl Simulation {
     pub fn new(domain: Domain, params: StepParams, gases: Vec<Gas>) -> Self {
         Self {
             params,
-            velocity: FaceGrid::zeros(domain, BoxKind::Periodic),
+            velocity: FaceGrid::zeros(domain, BoxKind::Periodic)
+                .with_interpolant(params.interpolant),
             gases,
             step_index: 0,
             times: StageTimes::default(),
             boundary: None,
-            velocity_scratch: FaceGrid::zeros(domain, BoxKind::Periodic),
+            velocity_scratch: FaceGrid::zeros(domain, BoxKind::Periodic)
+                .with_interpolant(params.interpolant),
             advector: Advector::new(domain, &AdvectionOptions::default(), params.backtrace),
             pressure: PressureSolver::with_precision(
                 domain,
@@ -305,8 +311,9 @@ impl Simulation {
                 "closed box: obstacles are periodic"
             );
         }
-        self.velocity = FaceGrid::zeros(d, kind);
-        self.velocity_scratch = FaceGrid::zeros(d, kind);
+        let interpolant = self.params.interpolant;
+        self.velocity = FaceGrid::zeros(d, kind).with_interpolant(interpolant);
+        self.velocity_scratch = FaceGrid::zeros(d, kind).with_interpolant(interpolant);
         self.pressure = PressureSolver::with_precision(d, kind, self.pressure.precision());
         for gas in &mut self.gases {
             match &mut gas.model {
@@ -442,6 +449,8 @@ impl Simulation {
     /// As [`Advector::advect`]; nothing is changed then.
     pub fn advect(&mut self) -> Result<(), CflError> {
         let p = self.params;
+        self.velocity.set_interpolant(p.interpolant);
+        self.velocity_scratch.set_interpolant(p.interpolant);
         let snapshot = self
             .gases
             .iter()
@@ -638,7 +647,7 @@ impl Simulation {
             gas.model.restore(density)?;
             gas.budget = budget;
         }
-        self.velocity = state.velocity;
+        self.velocity = state.velocity.with_interpolant(self.params.interpolant);
         self.step_index = state.step_index;
         Ok(())
     }
@@ -682,6 +691,7 @@ mod tests {
             viscosity: -1.0,
             gravity: Vec3::new(0.0, -1.0, 0.0),
             backtrace: Backtrace::Rk2,
+            interpolant: Interpolant::Trilinear,
             confinement: 0.0,
         };
         let gas = Gas::new("hot", domain, &source, 1.0);

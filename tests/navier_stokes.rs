@@ -32,6 +32,7 @@ fn taylor_green_decays_as_exp_minus_two_nu_t() {
         viscosity: nu,
         gravity: Vec3::ZERO,
         backtrace: Default::default(),
+        interpolant: Default::default(),
         confinement: 0.0,
     };
     let mut sim = Simulation::new(d, params, vec![]);

@@ -186,7 +186,7 @@ fn vdb_rs_reads_densities_exactly() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("frame.vdb");
         let (d, t, _) = write_sample(&path, compression);
-        assert!(!dir.path().join("frame.vdb.tmp").exists());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 
         let mut reader = VdbReader::new(BufReader::new(File::open(&path).unwrap())).unwrap();
         assert_eq!(reader.header.file_version, 224);

@@ -33,7 +33,7 @@ use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::sphere_wall::{
     AdvectedWall, FlowHistory, GriddedWall, SphereWallConfig, Wall,
 };
-use smokelab_app::frames::simulation_scene;
+use smokelab_app::run::frames::simulation_scene;
 
 fn bench_render(c: &mut Criterion) {
     let config = HotColdConfig {

@@ -40,7 +40,7 @@ use std::path::{Path, PathBuf};
 use std::rc::Rc;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use rhai::{Dynamic, Engine, EvalAltResult, Position, Scope, FLOAT, INT};
 use serde::Serialize;
@@ -205,9 +205,8 @@ pub fn run(args: &ScriptArgs) -> Result<()> {
             .map_or("script".into(), |s| s.to_string_lossy());
         Path::new("runs").join(format!("script-{stem}"))
     });
-    let earlier = crate::output_dir::check(&out, &crate::output_dir::SCRIPT, args.overwrite)?;
-    earlier.remove()?;
-    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+    let _folder =
+        crate::run::output_dir::prepare(&out, &crate::run::output_dir::SCRIPT, args.overwrite)?;
     let recorder = Rc::new(RefCell::new(Recorder::new(out.clone())));
     let engine = engine(&recorder, &params, args.pressure_precision);
     let ast = engine

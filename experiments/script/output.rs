@@ -39,8 +39,8 @@ use smokelab::io;
 use smokelab::simulation::{Gas, Simulation, StepParams};
 
 use super::types::{Fallible, Region, ScalarCache, ScalarF, VectorCache};
+use crate::figures::table::Log;
 use crate::run::{FineProbes, StepMeasures};
-use crate::table::Log;
 
 /// The steps whose fine measures `record(frame, dt, velocity, gases)`
 /// takes: those of `smokelab run --metrics-every 10`.
@@ -70,6 +70,8 @@ pub fn columns(gases: &[String]) -> Vec<String> {
         "div_max",
         "div_interp_rms",
         "div_interp_max",
+        "div_point_rms",
+        "div_point_max",
         "ke_top_octave",
     ]
     .map(String::from)
@@ -224,6 +226,7 @@ impl Recorder {
                     viscosity: 0.0,
                     gravity: Vec3::ZERO,
                     backtrace: Default::default(),
+                    interpolant: Default::default(),
                     confinement: 0.0,
                 };
                 let kind = velocity.0.kind();
@@ -277,7 +280,10 @@ impl Recorder {
         let StepMeasures { velocity, mirror } = StepMeasures::take(sim);
         let (div, max_u) = (velocity.divergence, velocity.mirror.max_norm);
         let fine = fine.then(|| probes.measure(sim));
-        let div_interp = fine.as_ref().map(|f| f.div_interp);
+        let (div_interp, div_point) = (
+            fine.as_ref().map(|f| f.div_interp),
+            fine.as_ref().map(|f| f.div_point),
+        );
         let mut row = vec![
             Cell::Int(step),
             Cell::F32(step as f32 * dt as f32),
@@ -287,6 +293,8 @@ impl Recorder {
             Cell::F32(div.max),
             Cell::F32(div_interp.map_or(f32::NAN, |d| d.rms)),
             Cell::F32(div_interp.map_or(f32::NAN, |d| d.max)),
+            Cell::F32(div_point.map_or(f32::NAN, |d| d.rms)),
+            Cell::F32(div_point.map_or(f32::NAN, |d| d.max)),
             Cell::F64(fine.as_ref().map_or(f64::NAN, |f| f.ke_top_octave)),
         ];
         for n in 0..sim.gases.len() {

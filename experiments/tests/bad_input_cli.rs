@@ -53,7 +53,7 @@ fn writing_over_a_run_folder_manifest_is_refused() {
         &sb,
         &["render", "run", "--image", "16x16", "--out", "r", "--quiet"],
         &[
-            "output folder r holds 3 files of an earlier run",
+            "output folder r holds 3 files an earlier smokelab wrote",
             "--overwrite",
         ],
     );

@@ -17,7 +17,7 @@ use smokelab::scenario::hot_cold::HotColdConfig;
 use smokelab::scenario::slab_box::SlabBoxConfig;
 use smokelab::scenario::{Scenario, ScenarioKind, SolverConfig};
 use smokelab::simulation::Simulation;
-use smokelab_app::checkpoint::{self, Checkpoint, RunRecord, FORMAT};
+use smokelab_app::run::checkpoint::{self, Checkpoint, RunRecord, FORMAT};
 
 /// Steps taken before the checkpoint (hot/cold's SELMA map has re-anchored
 /// once by then).

@@ -261,7 +261,7 @@ fn small_run_writes_whole_outputs() {
         .unwrap()
         .path()
         .to_string_lossy()
-        .ends_with(".tmp")));
+        .ends_with(smokelab::io::TEMPORARY_SUFFIX)));
 }
 
 #[test]

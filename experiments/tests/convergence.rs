@@ -1,13 +1,13 @@
 //! Convergence suite, CI subset: every study fits its observed order by least
 //! squares and asserts it within ±0.25 of the expected value (the reason for
-//! each expected value is in `smokelab_app::convergence_cases`). The long
+//! each expected value is in `smokelab_app::experiment::shared::convergence_cases`). The long
 //! versions run with `smokelab experiment C-1`, or
 //! `cargo test --release --test convergence -- --ignored`.
 
 use smokelab::advection::Backtrace;
 use smokelab::noise::curl::FdScheme;
-use smokelab_app::convergence_cases::{self as cases, Sampling, Study};
-use smokelab_app::registry::{Context, Size};
+use smokelab_app::experiment::kit::{Context, Size};
+use smokelab_app::experiment::shared::convergence_cases::{self as cases, Sampling, Study};
 
 #[path = "../../tests/common/order.rs"]
 mod order;
@@ -133,8 +133,9 @@ fn c1_default_studies_are_within_their_bands() {
         out: dir.path().join("convergence"),
         size: Size::Default,
         progress: true,
+        peers: None,
     };
-    (smokelab_app::registry::find("C-1")
+    (smokelab_app::experiment::registry::find("C-1")
         .expect("C-1 is registered")
         .run)(&ctx)
     .expect("C-1 runs");

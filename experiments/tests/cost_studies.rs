@@ -1,6 +1,6 @@
 //! The cost studies 07-10 (fig 7.10) and 08-2 (fig 8.2) at smoke size (16³
 //! flow, 6 frames, 64×48 images): memory is *measured* (heap high-water
-//! mark, `smokelab_app::memory`) and must grow by about one velocity grid
+//! mark, `smokelab_app::experiment::shared::memory`) and must grow by about one velocity grid
 //! per gridless frame and stay flat for SELMA; render work must grow with
 //! the gridless chain (the walk steps counted) and not with SELMA's frames.
 //! Render times are asserted on the committed default-size studies
@@ -15,7 +15,7 @@ use common::{num, smoke_experiment, table};
 use std::collections::HashMap;
 use std::path::Path;
 
-use smokelab_app::growth::{classify, Criteria, Growth, Trend};
+use smokelab_app::experiment::shared::growth::{classify, Criteria, Growth, Trend};
 
 /// `(frames, column)` of one series, by frames.
 fn series(t: &[HashMap<String, String>], name: &str, col: &str) -> Vec<(f64, f64)> {

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use clap::CommandFactory;
 use smokelab_app::cli::Cli;
-use smokelab_app::registry;
+use smokelab_app::experiment::registry;
 
 /// The repository root (the workspace, one above the app crate).
 fn root() -> PathBuf {
@@ -28,7 +28,7 @@ fn cli_reference() -> String {
         .title("Command-line reference".into())
         .show_footer(false);
     let body = clap_markdown::help_markdown_custom::<Cli>(&options);
-    let note = "<!-- Generated from the clap definitions in experiments/cli.rs and \
+    let note = "<!-- Generated from the clap definitions in experiments/cli/ and \
                 src/scenario/config.rs by experiments/tests/docs.rs; do not edit. -->\n\n";
     format!("{note}{body}")
 }
@@ -36,7 +36,7 @@ fn cli_reference() -> String {
 /// `docs/src/reference/experiments.md`: the registry as a table.
 fn experiments_catalogue() -> String {
     let mut s = String::from(
-        "<!-- Generated from experiments/registry.rs by experiments/tests/docs.rs; do not edit. -->\n\n\
+        "<!-- Generated from experiments/experiment/registry.rs by experiments/tests/docs.rs; do not edit. -->\n\n\
          # Experiments catalogue\n\n\
          Every numbered experiment, in the notes' order. Run one with \
          `smokelab experiment <id>`; it writes `results/<id>/` at the default \

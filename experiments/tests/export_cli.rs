@@ -215,3 +215,38 @@ fn vdb_frames_carry_density_the_obstacle_level_set_and_a_sequence() {
         assert_eq!(*v, want, "{p:?}");
     }
 }
+
+/// A killed or failed run used to be exported as if whole; now it is
+/// refused unless `--partial`, and a gas name in its manifest that is not a
+/// plain file name (`../x`) is refused before it becomes a path.
+#[test]
+fn export_refuses_partial_runs_and_gas_names_that_are_paths() {
+    let sb = Sandbox::new();
+    sb.small_hot_cold_run("r", &["--save-every", "2"]);
+    let edit = |f: &dyn Fn(&mut serde_json::Value)| {
+        let mut m = sb.manifest("r");
+        f(&mut m);
+        std::fs::write(sb.join("r/manifest.json"), m.to_string()).unwrap();
+    };
+    for status in ["running", "failed"] {
+        edit(&|m| m["status"] = serde_json::json!(status));
+        for format in ["vdb", "paraview"] {
+            sb.refused(
+                &["export", format, "r"],
+                &["run folder r is not complete", status, "--partial"],
+            );
+        }
+    }
+    assert!(!sb.join("r/run.pvd").exists() && !sb.join("r/frame_0001.vdb").exists());
+    sb.ok(&["export", "paraview", "r", "--partial"]);
+    assert!(sb.join("r/run.pvd").is_file());
+    edit(&|m| m["status"] = serde_json::json!("complete"));
+    for bad in ["../hot", "/etc/hot", ".hidden", "a/b"] {
+        edit(&|m| m["extra"]["gases"][0] = serde_json::json!(bad));
+        sb.refused(
+            &["export", "vdb", "r", "--out", "x"],
+            &["not a plain file name"],
+        );
+    }
+    assert!(!sb.join("x").exists());
+}

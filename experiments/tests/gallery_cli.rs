@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
 use common::{assert_ok, smokelab, Sandbox};
-use smokelab_app::registry;
+use smokelab_app::experiment::registry;
 
 /// Every PNG/SVG under `root`, relative to it, `/`-separated.
 fn figures(root: &Path) -> BTreeSet<String> {

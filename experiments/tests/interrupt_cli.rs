@@ -76,7 +76,10 @@ fn an_interrupted_run_says_running_and_leaves_only_whole_files() {
     for entry in std::fs::read_dir(&out).unwrap() {
         let path = entry.unwrap().path();
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
-        assert!(!name.ends_with(".tmp"), "{name} was left behind");
+        assert!(
+            !smokelab::io::is_temporary_file(&name),
+            "{name} was left behind"
+        );
         if name.starts_with("vel_") {
             ndarray_npy::read_npy::<_, ndarray::Array4<f32>>(&path)
                 .unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -178,12 +178,13 @@ fn noise_command_rejects_bad_input_and_writes_nothing() {
 fn noise_experiments_run_at_smoke_size() {
     let dir = tempfile::tempdir().unwrap();
     for id in ["N-3", "N-4", "07-2"] {
-        let exp = smokelab_app::registry::find(id).unwrap();
+        let exp = smokelab_app::experiment::registry::find(id).unwrap();
         let out = dir.path().join(id);
-        let ctx = smokelab_app::registry::Context {
+        let ctx = smokelab_app::experiment::kit::Context {
             out: out.clone(),
-            size: smokelab_app::registry::Size::Smoke,
+            size: smokelab_app::experiment::kit::Size::Smoke,
             progress: false,
+            peers: None,
         };
         (exp.run)(&ctx).unwrap();
         for file in ["data.csv", "manifest.json"] {

@@ -54,7 +54,7 @@ fn every_link_resolves_under_results() {
 fn figures_table_names_every_experiment() {
     let (_, text) = paper();
     let table = &text[text.find("## Figures table").expect("a figures table")..];
-    for id in smokelab_app::registry::ids() {
+    for id in smokelab_app::experiment::registry::ids() {
         assert!(
             table.contains(&format!("`smokelab experiment {id}`")),
             "the figures table has no row for experiment {id}"
@@ -89,7 +89,7 @@ fn paper_builds_from_a_subfolder() {
 fn committed_paper_matches_the_committed_results() {
     let (dir, text) = paper();
     let root = dir.parent().unwrap();
-    let regenerated = smokelab_app::paper::refreshed(root).unwrap();
+    let regenerated = smokelab_app::publish::paper::refreshed(root).unwrap();
     if let Some(line) = text
         .lines()
         .zip(regenerated.lines())

@@ -212,3 +212,22 @@ fn render_from_a_run_rejects_bad_folders_and_frames() {
         assert!(!d.join("out").exists(), "{args:?} wrote out");
     }
 }
+
+/// A run that is not complete (killed: its manifest still says `running`)
+/// used to be rendered as if whole; now it is refused unless `--partial`.
+#[test]
+fn render_of_a_partial_run_needs_partial() {
+    let sb = Sandbox::new();
+    sb.small_hot_cold_run("r", &["--save-every", "2"]);
+    let mut m = sb.manifest("r");
+    m["status"] = serde_json::json!("running");
+    std::fs::write(sb.join("r/manifest.json"), m.to_string()).unwrap();
+    let args = ["render", "r", "--image", "16x12", "--quiet", "--out", "out"];
+    sb.refused(
+        &args,
+        &["run folder r is not complete", "running", "--partial"],
+    );
+    assert!(!sb.join("out").exists());
+    sb.ok(&[&args[..], &["--partial"]].concat());
+    assert!(sb.join("out/render.exr").is_file());
+}

@@ -70,7 +70,12 @@ fn assert_same_run(full: &Path, resumed: &Path, frames: usize) {
     assert_eq!(ra.len(), frames);
     assert_eq!(ra, rb, "metrics rows differ");
     assert_eq!(manifest(full)["config"], manifest(resumed)["config"]);
-    assert!(!b.keys().any(|n| n.ends_with(".tmp")), "{:?}", b.keys());
+    assert!(
+        !b.keys()
+            .any(|n| n.ends_with(".tmp") || n.ends_with(".smokelab-tmp")),
+        "{:?}",
+        b.keys()
+    );
 }
 
 /// Start a run of (nearly) endless frames checkpointing every 4 steps, kill
@@ -317,4 +322,60 @@ fn bad_resumes_exit_2_and_write_nothing() {
     );
     let args = ["run", "--resume", "good", "--frames", "16", "--res", "8"];
     refused(&sb, &args, &good, "drop --res");
+}
+
+/// A resume killed before its first checkpoint used to leave a folder that
+/// could never be resumed again ("keys differing: frames": the manifest
+/// held the new `--frames`, the checkpoint the old). Now it resumes, and
+/// the result is the uninterrupted run's, bitwise.
+#[test]
+fn an_interrupted_resume_can_be_resumed_again() {
+    let sb = Sandbox::new();
+    // Metrics and diagnostics every 4th step: the first leg's last step
+    // (4, diagnosed as a run's last step is) is then on the cadence of the
+    // uninterrupted run.
+    let cadence = ["--metrics-every", "4", "--diagnostics-every", "4"];
+    let leg = |frames| {
+        let mut a = vec!["run", "hot-cold", "--res", "16", "--frames", frames];
+        a.extend(["--save-every", "4", "--quiet"]);
+        a.extend(cadence);
+        a
+    };
+    sb.ok(&[leg("16"), vec!["--out", "full"]].concat());
+    // Checkpoints only at the last step: the resume below writes none
+    // before it is killed.
+    sb.ok(&[
+        leg("4"),
+        vec!["--checkpoint-every", "100000", "--out", "part"],
+    ]
+    .concat());
+    let part = sb.join("part");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_smokelab"))
+        .args(["run", "--resume", "part", "--frames", "100000", "--quiet"])
+        .current_dir(sb.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let rows = || {
+        std::fs::read_to_string(part.join("metrics.csv"))
+            .map_or(0, |t| t.lines().count().saturating_sub(1))
+    };
+    let start = Instant::now();
+    while rows() < 7 {
+        assert!(start.elapsed() < Duration::from_secs(120), "no 7th step");
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let m = manifest(&part);
+    assert_eq!(
+        (m["status"].as_str(), m["config"]["frames"].as_u64()),
+        (Some("running"), Some(100000))
+    );
+    sb.ok(&["run", "--resume", "part", "--frames", "16", "--quiet"]);
+    let m = manifest(&part);
+    assert_eq!(m["status"], "complete");
+    assert_eq!(m["extra"]["resumed_from"], 4);
+    assert_same_run(&sb.join("full"), &part, 16);
 }

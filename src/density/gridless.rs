@@ -8,7 +8,7 @@
 //! ρ_n(x) = ρ_{n−1}(B_n(x)) + S(x) Δt,        B_k = backtrace through u_k  (eq 7.4 + source)
 //! ```
 //!
-//! evaluated by walking back (DESIGN.md, "Gridless density with sources"):
+//! evaluated by walking back:
 //!
 //! ```text
 //! acc = 0

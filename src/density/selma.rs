@@ -37,7 +37,7 @@
 //! gases re-anchored together when the shared lattice has deformed too far.
 //! Each gas gets the bits it would get alone (`tests` below).
 //!
-//! # Continuous injection (the design chosen, after DESIGN.md "SELMA")
+//! # Continuous injection
 //!
 //! With a source, the density since the last *re-anchoring* at step `r` is
 //!
@@ -54,7 +54,7 @@
 //! ρ_n(x) = R(X_n(x)),    R(ξ) = ρ_r(ξ) + Σ_k S(Y_k(ξ)) Δt
 //! ```
 //!
-//! — DESIGN.md's design (a): the source is accumulated in reference
+//! — the source is accumulated in reference
 //! coordinates on the map lattice. `Y_k(ξ)` of every lattice node is tracked
 //! forward by inverting the step's backtrace with a fixed-point iteration,
 //! `y' ← y + (y' − B(y'))`, so the injected gas lands where the backtrace
@@ -67,7 +67,7 @@
 //! of the fresh source: reference neighbours drift apart in the flow's
 //! stretching directions, and gas injected at one node is interpolated
 //! toward nodes now far away (streaks, lost mass). So the map is
-//! **re-anchored** (DESIGN.md's design (b)) when the lattice has deformed
+//! **re-anchored** when the lattice has deformed
 //! too far: when some pair of neighbouring reference nodes has moved more
 //! than `τ` map cells relative to each other
 //! ([`Selma::lattice_deformation`]; `--selma-remap τ`, default

@@ -40,7 +40,8 @@ use rayon::prelude::*;
 use serde::de::Error as _;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use super::{ScalarGrid, Stencil, VectorGrid, Wrap};
+use super::interpolant::cell_centre;
+use super::{Interpolant, ScalarGrid, Stencil, VectorGrid, Wrap};
 use crate::domain::Domain;
 use crate::error::InputError;
 use crate::field::VectorField;
@@ -110,6 +111,7 @@ pub struct FaceSampler<'a> {
     /// Cells of the domain along each axis.
     cells: [usize; 3],
     wrap: Wrap,
+    interpolant: Interpolant,
 }
 
 impl<'a> FaceSampler<'a> {
@@ -120,27 +122,50 @@ impl<'a> FaceSampler<'a> {
         (self.data, self.dims, self.cells, self.wrap)
     }
 
-    /// The velocity at cell-centre grid coordinates `g` (each component
-    /// trilinear on its own lattice, as [`FaceGrid::sample_grid_coords`]).
+    /// How [`Self::at`] interpolates between the faces.
+    pub fn interpolant(&self) -> Interpolant {
+        self.interpolant
+    }
+
+    /// The velocity at cell-centre grid coordinates `g`, as
+    /// [`FaceGrid::sample_grid_coords`]: each component trilinear on its own
+    /// lattice at `g` ([`Interpolant::Trilinear`]), or at `g` with its
+    /// coordinates across the component's axis moved to the centre of the
+    /// cell holding `g` ([`Interpolant::Rt0`], [`Self::across`]).
     #[inline(always)]
     pub fn at(&self, g: Vec3) -> Vec3 {
+        let c = self.across(g);
         Vec3::new(
-            self.component_of(0, self.data[0], g),
-            self.component_of(1, self.data[1], g),
-            self.component_of(2, self.data[2], g),
+            self.component_of(0, self.data[0], Vec3::new(g.x, c.y, c.z)),
+            self.component_of(1, self.data[1], Vec3::new(c.x, g.y, c.z)),
+            self.component_of(2, self.data[2], Vec3::new(c.x, c.y, g.z)),
         )
+    }
+
+    /// The coordinates [`Self::at`] reads each component at across its own
+    /// axis: `g` itself (trilinear), or the centre of the cell holding `g`
+    /// (RT0, [`crate::grid::interpolant`]).
+    #[inline(always)]
+    fn across(&self, g: Vec3) -> Vec3 {
+        match self.interpolant {
+            Interpolant::Trilinear => g,
+            Interpolant::Rt0 => Vec3::new(cell_centre(g.x), cell_centre(g.y), cell_centre(g.z)),
+        }
     }
 
     /// The divergence `∂u/∂x + ∂v/∂y + ∂w/∂z` of [`Self::at`]'s
     /// interpolant at cell-centre grid coordinates `g`, per cell (divide by
-    /// Δx for world units): each component's trilinear differentiated along
-    /// its own axis ([`Stencil::derivative`]). Zero at cell centres of a
-    /// projected velocity, not between them.
+    /// Δx for world units): each component's interpolant differentiated
+    /// along its own axis ([`Stencil::derivative`]). Trilinear: zero at
+    /// cell centres of a projected velocity, not between them. RT0: the
+    /// compact divergence `D u` of the cell holding `g` (times Δx),
+    /// everywhere in it.
     pub fn divergence_at(&self, g: Vec3) -> f32 {
+        let c = self.across(g);
         (0..3)
             .map(|a| {
-                let mut p = g;
-                p[a] += 0.5;
+                let mut p = c;
+                p[a] = g[a] + 0.5;
                 Stencil::derivative(p, self.dims[a], self.wrap, a).apply(self.data[a])
             })
             .sum()
@@ -321,15 +346,18 @@ fn shape_of(d: [usize; 3]) -> (usize, usize, usize) {
 /// MAC velocity on a [`Domain`]: `u`, `v`, `w` on the x-, y- and z-faces.
 ///
 /// See the [module documentation](self) for positions, shapes and operators.
-/// As a [`VectorField`] it interpolates each component trilinearly on its own
-/// lattice ([`FaceGrid::sample`]). Serialized (serde) as the tuple
-/// `(domain, kind, [u, v, w])`, each component a flat sequence of f32 in
+/// As a [`VectorField`] it interpolates each component on its own lattice
+/// through its [`Interpolant`] (trilinear unless set,
+/// [`FaceGrid::sample`]). Serialized (serde) as the tuple
+/// `(domain, kind, interpolant, [u, v, w])`, each component a flat sequence of f32 in
 /// `[z][y][x]` order; reading checks the lattice sizes and, in a closed
 /// box, the zero wall faces ([`FaceGrid::from_components`]).
 #[derive(Clone, Debug)]
 pub struct FaceGrid {
     domain: Domain,
     kind: BoxKind,
+    /// How point queries interpolate between the faces.
+    interpolant: Interpolant,
     /// Lattice size `[mx, my, mz]` of each component.
     dims: [[usize; 3]; 3],
     comps: [Array3<f32>; 3],
@@ -338,7 +366,7 @@ pub struct FaceGrid {
 impl Serialize for FaceGrid {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         let comps = [0, 1, 2].map(|a| self.slice(a));
-        (&self.domain, self.kind, comps).serialize(s)
+        (&self.domain, self.kind, self.interpolant, comps).serialize(s)
     }
 }
 
@@ -347,7 +375,8 @@ impl<'de> Deserialize<'de> for FaceGrid {
     /// If a component's lattice is not [`BoxKind::face_dims`], or a closed
     /// box's wall face is not zero.
     fn deserialize<D: Deserializer<'de>>(de: D) -> Result<Self, D::Error> {
-        let (domain, kind, comps): (Domain, BoxKind, [Vec<f32>; 3]) = Deserialize::deserialize(de)?;
+        let (domain, kind, interpolant, comps): (Domain, BoxKind, Interpolant, [Vec<f32>; 3]) =
+            Deserialize::deserialize(de)?;
         let shaped = |a: usize, c: Vec<f32>| {
             let (count, shape) = (c.len(), shape_of(kind.face_dims(&domain, a)));
             Array3::from_shape_vec(shape, c).map_err(|_| {
@@ -359,7 +388,9 @@ impl<'de> Deserialize<'de> for FaceGrid {
         };
         let [u, v, w] = comps;
         let comps = [shaped(0, u)?, shaped(1, v)?, shaped(2, w)?];
-        Self::from_components(domain, kind, comps).map_err(D::Error::custom)
+        Self::from_components(domain, kind, comps)
+            .map(|g| g.with_interpolant(interpolant))
+            .map_err(D::Error::custom)
     }
 }
 
@@ -370,9 +401,27 @@ impl FaceGrid {
         Self {
             domain,
             kind,
+            interpolant: Interpolant::default(),
             dims,
             comps: dims.map(|d| Array3::zeros(shape_of(d))),
         }
+    }
+
+    /// The same faces read through `interpolant` ([`FaceGrid::sample`],
+    /// [`FaceGrid::sampler`] and every trace through them).
+    pub fn with_interpolant(mut self, interpolant: Interpolant) -> Self {
+        self.interpolant = interpolant;
+        self
+    }
+
+    /// Read the faces through `interpolant` from now on.
+    pub fn set_interpolant(&mut self, interpolant: Interpolant) {
+        self.interpolant = interpolant;
+    }
+
+    /// How point queries interpolate between the faces.
+    pub fn interpolant(&self) -> Interpolant {
+        self.interpolant
     }
 
     /// Wrap three component arrays `[u, v, w]`.
@@ -550,8 +599,9 @@ impl FaceGrid {
         w[nz * nx * ny..].fill(0.0);
     }
 
-    /// Trilinear point query at world point `p`, each component interpolated
-    /// on its own face lattice.
+    /// Point query at world point `p` through the grid's [`Interpolant`]:
+    /// each component interpolated on its own face lattice, trilinear at `p`
+    /// or (RT0) linear along its axis in the cell holding `p`.
     ///
     /// Outside the lattice:
     /// - periodic box: the lattice wraps, so any point (however far outside
@@ -585,6 +635,7 @@ impl FaceGrid {
             dims: self.dims,
             cells: self.domain.dims,
             wrap: self.kind.wrap(),
+            interpolant: self.interpolant,
         }
     }
 
@@ -863,13 +914,15 @@ impl VectorField for FaceGrid {
         assert_eq!(points.len(), out.len(), "eval_batch: slice lengths differ");
         let wrap = self.kind.wrap();
         let data = [self.slice(0), self.slice(1), self.slice(2)];
+        let s = self.sampler();
         // One component at a time: each pass streams one lattice.
         for (a, data) in data.into_iter().enumerate() {
             let dims = self.dims[a];
             for (o, &p) in out.iter_mut().zip(points) {
-                let mut g = self.domain.grid_coords(p);
-                g[a] += 0.5;
-                o[a] = Stencil::new(g, dims, wrap).apply(data);
+                let g = self.domain.grid_coords(p);
+                let mut q = s.across(g);
+                q[a] = g[a] + 0.5;
+                o[a] = Stencil::new(q, dims, wrap).apply(data);
             }
         }
     }

@@ -6,6 +6,7 @@
 //! [`ScalarGrid::from_field`] and [`VectorGrid::from_field`]).
 
 pub mod face;
+pub mod interpolant;
 mod interpolate;
 pub mod open_faces;
 mod samples;
@@ -13,6 +14,7 @@ mod scalar;
 mod vector;
 
 pub use face::{BoxKind, FaceGrid};
+pub use interpolant::Interpolant;
 pub use interpolate::{Stencil, Wrap};
 pub use open_faces::OpenFaces;
 pub use samples::Grid;

@@ -1,12 +1,18 @@
-//! Output: whole files only.
+//! Output: whole files only, and only smokelab's.
 //!
-//! Every writer here writes to a temporary file in the same folder,
-//! `<name>.<pid>-<n>.tmp` (unique to the process and the write), and renames
-//! it into place, so a killed run leaves finished files intact and never a
-//! half-written one under a real name. A temporary file is removed when its
-//! write fails, and [`remove_temporary_files`] (the application calls it on
-//! Ctrl-C) removes those still being written.
+//! Every writer here writes to a temporary file in the same folder, created
+//! exclusively under an unpredictable name (`.<name>.XXXXXX.smokelab-tmp`,
+//! [`tempfile`]), syncs it, renames it into place and syncs the folder, so
+//! a killed run leaves finished files intact and never a half-written one
+//! under a real name, and a write never follows a symbolic link planted at
+//! the name (the rename replaces the link itself). A failed write or sync
+//! is an error naming the file. A temporary file is removed when its write
+//! fails, and [`remove_temporary_files`] (the application calls it on
+//! Ctrl-C) removes those still being written. Inside an open output folder
+//! ([`folder::OutputFolder`]) each file is claimed first ([`folder::claim`]):
+//! recorded, or refused when it would replace a file smokelab did not write.
 
+pub mod folder;
 pub mod input;
 pub mod manifest;
 pub mod preview;
@@ -16,45 +22,58 @@ pub mod vtk;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
 use anyhow::{bail, Context, Result};
 use ndarray::{Array3, Array4};
 use ndarray_npy::WriteNpyExt;
 
+/// How the temporary files of [`write_atomic`] end: `.<name>.XXXXXX` then
+/// this ([`is_temporary_file`]).
+pub const TEMPORARY_SUFFIX: &str = ".smokelab-tmp";
+
+/// Whether `name` is a temporary file of [`write_atomic`] (one a killed
+/// process left behind).
+pub fn is_temporary_file(name: &str) -> bool {
+    name.starts_with('.') && name.ends_with(TEMPORARY_SUFFIX)
+}
+
 /// The temporary files being written now; `None` once
 /// [`remove_temporary_files`] has run, after which no write may start.
 static TEMPORARY_FILES: Mutex<Option<Vec<PathBuf>>> = Mutex::new(Some(Vec::new()));
 
-/// Numbers the temporary files of this process.
-static NEXT_TEMPORARY: AtomicU64 = AtomicU64::new(0);
-
 /// A temporary file being written: listed in [`TEMPORARY_FILES`] while it
 /// exists, removed on drop unless renamed into place.
 struct TemporaryFile {
-    path: PathBuf,
-    renamed: bool,
+    path: Option<tempfile::TempPath>,
+    listed: PathBuf,
 }
 
 impl TemporaryFile {
-    /// Create `<path>.<pid>-<n>.tmp` and list it.
+    /// Create `.<name>.XXXXXX.smokelab-tmp` beside `path`, exclusively, and list it.
     fn create(path: &Path) -> Result<(Self, File)> {
-        let mut name = path.as_os_str().to_owned();
-        let n = NEXT_TEMPORARY.fetch_add(1, Ordering::Relaxed);
-        name.push(format!(".{}-{n}.tmp", std::process::id()));
-        let tmp = PathBuf::from(name);
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        let name = path
+            .file_name()
+            .map_or("output".into(), |n| n.to_string_lossy());
         let mut live = TEMPORARY_FILES.lock().unwrap_or_else(|e| e.into_inner());
         let Some(live) = live.as_mut() else {
             bail!("interrupted: not writing {}", path.display());
         };
-        let file =
-            File::create(&tmp).with_context(|| format!("cannot create {}", tmp.display()))?;
-        live.push(tmp.clone());
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".{name}."))
+            .suffix(TEMPORARY_SUFFIX)
+            .tempfile_in(dir)
+            .with_context(|| format!("cannot create a temporary file for {}", path.display()))?;
+        let (file, tmp) = tmp.into_parts();
+        live.push(tmp.to_path_buf());
         Ok((
             Self {
-                path: tmp,
-                renamed: false,
+                listed: tmp.to_path_buf(),
+                path: Some(tmp),
             },
             file,
         ))
@@ -62,24 +81,26 @@ impl TemporaryFile {
 
     /// Rename the finished file to `path`.
     fn rename_to(mut self, path: &Path) -> Result<()> {
-        std::fs::rename(&self.path, path)
-            .with_context(|| format!("cannot rename {} into place", self.path.display()))?;
-        self.renamed = true;
+        let tmp = self.path.take().expect("renamed once");
+        tmp.persist(path).map_err(|e| {
+            let shown = e.path.display().to_string();
+            // Dropping the returned path removes the temporary file.
+            anyhow::Error::new(e.error).context(format!("cannot rename {shown} into place"))
+        })?;
         Ok(())
     }
 }
 
 impl Drop for TemporaryFile {
     fn drop(&mut self) {
-        if !self.renamed {
-            let _ = std::fs::remove_file(&self.path);
-        }
+        // Dropping an unrenamed `TempPath` removes its file.
+        self.path.take();
         if let Some(live) = TEMPORARY_FILES
             .lock()
             .unwrap_or_else(|e| e.into_inner())
             .as_mut()
         {
-            live.retain(|p| p != &self.path);
+            live.retain(|p| p != &self.listed);
         }
     }
 }
@@ -107,18 +128,47 @@ pub fn interrupted() -> bool {
         .is_none()
 }
 
+/// Name `path` in an I/O error (a full disk reads "No space left on device"
+/// with the file); other errors (an [`crate::error::InputError`] a writer
+/// raised) pass unchanged.
+fn naming(e: anyhow::Error, path: &Path) -> anyhow::Error {
+    if e.downcast_ref::<std::io::Error>().is_some() {
+        e.context(format!("cannot write {}", path.display()))
+    } else {
+        e
+    }
+}
+
+/// Sync the folder holding `path`, so a rename into it survives a crash.
+pub fn sync_parent(path: &Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    File::open(dir)
+        .and_then(|d| d.sync_all())
+        .with_context(|| format!("cannot sync the folder {} to disk", dir.display()))
+}
+
 /// Write a file through a temporary name and an atomic rename; the
-/// temporary file is removed if anything fails.
+/// temporary file is removed if anything fails. The data and then the
+/// folder are synced; a failure of either is an error naming the file.
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> Result<()>,
 ) -> Result<()> {
+    folder::claim(path)?;
     let (tmp, file) = TemporaryFile::create(path)?;
     let mut w = BufWriter::new(file);
-    write(&mut w)?;
-    w.flush()?;
-    w.into_inner().map_err(|e| e.into_error())?.sync_data().ok();
-    tmp.rename_to(path)
+    write(&mut w).map_err(|e| naming(e, path))?;
+    w.flush()
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    w.into_inner()
+        .map_err(|e| e.into_error())
+        .and_then(|f| f.sync_data())
+        .with_context(|| format!("cannot sync {} to disk", path.display()))?;
+    tmp.rename_to(path)?;
+    sync_parent(path)
 }
 
 /// Write a scalar volume as `.npy` (f32, shape `(nz, ny, nx)`).
@@ -164,6 +214,9 @@ pub fn check_output_dir(dir: &Path) -> Result<(), crate::error::InputError> {
             dir.display()
         )))
     };
+    if is_system_folder(dir) {
+        return bad("is a system folder (or the home folder itself), where a command's files would mix with everything else");
+    }
     let mut existing = dir;
     while !existing.as_os_str().is_empty() && std::fs::symlink_metadata(existing).is_err() {
         match existing.parent() {
@@ -193,10 +246,54 @@ pub fn check_output_dir(dir: &Path) -> Result<(), crate::error::InputError> {
     }
 }
 
-/// Create the output folder (and parents).
+/// Create the output folder (and parents; those inside an open output
+/// folder are recorded as smokelab's, [`folder::create_dirs`]).
 pub fn create_output_dir(dir: &Path) -> Result<()> {
-    std::fs::create_dir_all(dir)
-        .with_context(|| format!("cannot create output folder {}", dir.display()))
+    folder::create_dirs(dir)
+}
+
+/// The folders no command may write into directly: the file system's root,
+/// the system's top folders and the home folder itself (a run's files
+/// scattered there could not be told from the user's).
+fn is_system_folder(dir: &Path) -> bool {
+    const SYSTEM: [&str; 22] = [
+        "/",
+        "/bin",
+        "/boot",
+        "/dev",
+        "/etc",
+        "/home",
+        "/lib",
+        "/lib64",
+        "/media",
+        "/mnt",
+        "/opt",
+        "/proc",
+        "/root",
+        "/run",
+        "/sbin",
+        "/srv",
+        "/sys",
+        "/tmp",
+        "/usr",
+        "/var",
+        "/usr/local",
+        "/var/tmp",
+    ];
+    let home = std::env::var_os("HOME").map(PathBuf::from);
+    let same = |a: &Path, b: &Path| {
+        a == b
+            || a.canonicalize()
+                .ok()
+                .zip(b.canonicalize().ok())
+                .is_some_and(|(x, y)| x == y)
+    };
+    let abs = std::path::absolute(dir).unwrap_or_else(|_| dir.to_path_buf());
+    let abs: PathBuf = abs
+        .components()
+        .filter(|c| *c != std::path::Component::CurDir)
+        .collect();
+    SYSTEM.iter().any(|s| same(&abs, Path::new(s))) || home.is_some_and(|h| same(&abs, &h))
 }
 
 #[cfg(test)]
@@ -213,7 +310,7 @@ mod tests {
     }
 
     #[test]
-    fn temporary_files_are_unique_and_removed_when_the_write_fails() {
+    fn temporary_files_are_unpredictable_and_removed_when_the_write_fails() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.json");
         let mut seen = Vec::new();
@@ -228,19 +325,56 @@ mod tests {
             Ok(w.write_all(b"{}")?)
         })
         .unwrap();
-        // Each write had its own temporary name, with this process's id.
-        let pid = std::process::id();
+        // Each write had its own temporary name, hidden and random.
         assert_eq!(seen.len(), 2);
-        assert!(
-            seen[0][0].starts_with(&format!("a.json.{pid}-")),
-            "{seen:?}"
-        );
-        assert!(
-            seen[0][0].ends_with(".tmp") && seen[0] != seen[1],
-            "{seen:?}"
-        );
+        for s in &seen {
+            assert!(
+                s[0].starts_with(".a.json.") && is_temporary_file(&s[0]),
+                "{seen:?}"
+            );
+        }
+        assert_ne!(seen[0], seen[1]);
         // The failed write left nothing; the good one only its file.
         assert_eq!(names(dir.path()), ["a.json"]);
         assert_eq!(std::fs::read(&path).unwrap(), b"{}");
+    }
+
+    #[test]
+    fn a_symbolic_link_at_the_name_is_replaced_not_written_through() {
+        let dir = tempfile::tempdir().unwrap();
+        let outside = dir.path().join("outside.csv");
+        std::fs::write(&outside, "precious").unwrap();
+        let path = dir.path().join("metrics.csv");
+        std::os::unix::fs::symlink(&outside, &path).unwrap();
+        write_atomic(&path, |w| Ok(w.write_all(b"rows")?)).unwrap();
+        assert_eq!(std::fs::read_to_string(&outside).unwrap(), "precious");
+        assert!(!std::fs::symlink_metadata(&path).unwrap().is_symlink());
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "rows");
+    }
+
+    #[test]
+    fn a_full_disk_is_an_error_naming_the_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("frame.npy");
+        let e = write_atomic(&path, |_| {
+            Err(std::io::Error::from_raw_os_error(libc::ENOSPC).into())
+        })
+        .unwrap_err();
+        let e = format!("{e:#}");
+        assert!(
+            e.contains("frame.npy") && e.to_lowercase().contains("no space left on device"),
+            "{e}"
+        );
+        assert!(!path.exists());
+    }
+
+    #[test]
+    fn system_folders_are_refused_as_output_folders() {
+        for d in ["/", "/usr", "/etc", "/tmp/.", "/usr/../usr"] {
+            let e = check_output_dir(Path::new(d)).unwrap_err().to_string();
+            assert!(e.contains("system folder"), "{d}: {e}");
+        }
+        let dir = tempfile::tempdir().unwrap();
+        check_output_dir(&dir.path().join("run")).unwrap();
     }
 }

@@ -60,6 +60,37 @@ pub fn face_interpolant_divergence(vel: &FaceGrid, points: &[Vec3]) -> RmsMax {
     })
 }
 
+/// The divergence of a staggered velocity's interpolant
+/// ([`crate::grid::Interpolant`]) at `points` (world), differentiated
+/// exactly ([`crate::grid::face::FaceSampler::divergence_at`]), rms and
+/// max |·| relative to `max|u| / Δx` (`max|u|` the largest face value; zero
+/// for a velocity at rest). Trilinear: zero at the cell centres of a
+/// projected velocity, not between; RT0: each point's cell's compact
+/// divergence, zero to round-off after the projection.
+pub fn face_pointwise_divergence(vel: &FaceGrid, points: &[Vec3]) -> RmsMax {
+    let scale = vel.max_norm();
+    if scale == 0.0 || points.is_empty() {
+        return RmsMax::default();
+    }
+    let (d, s) = (vel.domain(), vel.sampler());
+    let chunks: Vec<(f64, f32)> = points
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            chunk.iter().fold((0.0f64, 0.0f32), |(sum, max), &p| {
+                let div = s.divergence_at(d.grid_coords(p));
+                (sum + (div as f64).powi(2), max.max(div.abs()))
+            })
+        })
+        .collect();
+    let (sum, max) = chunks
+        .iter()
+        .fold((0.0, 0.0f32), |a, b| (a.0 + b.0, a.1.max(b.1)));
+    RmsMax {
+        rms: ((sum / points.len() as f64).sqrt() / scale as f64) as f32,
+        max: max / scale,
+    }
+}
+
 /// [`interpolant_divergence`] with the point query `query(points, out)`:
 /// per chunk of points the six points `p ± h e_a` of each, queried at once,
 /// then the central differences `(u(p + h e_a) − u(p − h e_a)) / 2h`.

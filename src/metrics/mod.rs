@@ -13,7 +13,9 @@ pub mod spectrum;
 use rayon::prelude::*;
 
 pub use blobs::{isolated_mass_share, BLOB_CELLS, BLOB_LEVEL};
-pub use interpolant::{face_interpolant_divergence, interpolant_divergence, probe_points};
+pub use interpolant::{
+    face_interpolant_divergence, face_pointwise_divergence, interpolant_divergence, probe_points,
+};
 pub use spectrum::SpectralShare;
 
 use crate::grid::face::compact_divergence;

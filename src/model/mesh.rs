@@ -75,9 +75,12 @@ impl Mesh {
         Ok(mesh)
     }
 
-    /// Write as OBJ (1-based indices).
-    pub fn write_obj(&self, path: &Path) -> std::io::Result<()> {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(path)?);
+    /// Write as OBJ (1-based indices), atomically ([`crate::io::write_atomic`]).
+    pub fn write_obj(&self, path: &Path) -> anyhow::Result<()> {
+        crate::io::write_atomic(path, |w| self.write_obj_to(w))
+    }
+
+    fn write_obj_to(&self, w: &mut impl Write) -> anyhow::Result<()> {
         writeln!(
             w,
             "# smokelab mesh: {} vertices, {} triangles",
@@ -90,7 +93,7 @@ impl Mesh {
         for t in &self.triangles {
             writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
         }
-        w.flush()
+        Ok(())
     }
 
     /// The triangles' corner positions.

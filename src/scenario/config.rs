@@ -22,7 +22,7 @@ use crate::advection::{AdvectionOptions, Backtrace, Limiter, QuickOptions, Schem
 use crate::density::{CellSamples, DensityMode, DensityOptions, DEFAULT_SELMA_REMAP};
 use crate::domain::{Domain, MIN_CELLS};
 use crate::error::{check_non_negative, check_positive, InputError};
-use crate::grid::BoxKind;
+use crate::grid::{BoxKind, Interpolant};
 use crate::pressure::PressurePrecision;
 use crate::simulation::{Gas, Simulation, StepParams};
 
@@ -166,6 +166,15 @@ solver_keys! {
     backtrace: Backtrace = Backtrace::Rk2;
     flag backtrace: Option<Backtrace> [value_enum] => given;
 
+    /// How every trace that follows the velocity (semi-Lagrangian,
+    /// MacCormack and BFECC backtraces, gridless walks, SELMA maps) reads it
+    /// between the faces: `trilinear` (each component trilinear on its own
+    /// faces) or `rt0` (alias `pollock`: the lowest-order Raviart–Thomas
+    /// interpolant, each component linear along its own axis inside a cell
+    /// and constant across, so divergence-free at every point; first order).
+    interpolant: Interpolant = Interpolant::Trilinear;
+    flag interpolant: Option<Interpolant> [value_enum] => given;
+
     /// Advection scheme for velocity and gridded densities: `sl`, `quick`,
     /// `maccormack` or `bfecc` (gridless and SELMA densities always trace
     /// semi-Lagrangian departure points; the scheme then moves the velocity).
@@ -282,13 +291,14 @@ impl SolverConfig {
         }
     }
 
-    /// Δt, ν, g⃗ = (0, −g, 0), the backtrace and the confinement ε.
+    /// Δt, ν, g⃗ = (0, −g, 0), the backtrace, the interpolant and the confinement ε.
     pub fn step_params(&self) -> StepParams {
         StepParams {
             dt: self.dt,
             viscosity: self.nu,
             gravity: Vec3::new(0.0, -self.gravity, 0.0),
             backtrace: self.backtrace,
+            interpolant: self.interpolant,
             confinement: self.confinement,
         }
     }

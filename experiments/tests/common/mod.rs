@@ -132,12 +132,14 @@ pub fn num(row: &HashMap<String, String>, col: &str) -> f64 {
 
 /// Run experiment `id` at smoke size, quietly, into `dir/id`; its folder.
 pub fn smoke_experiment(dir: &Path, id: &str) -> PathBuf {
-    use smokelab_app::registry::{find, Context, Size};
+    use smokelab_app::experiment::kit::{Context, Size};
+    use smokelab_app::experiment::registry::find;
     let out = dir.join(id);
     let ctx = Context {
         out: out.clone(),
         size: Size::Smoke,
         progress: false,
+        peers: None,
     };
     (find(id).unwrap().run)(&ctx).unwrap_or_else(|e| panic!("{id}: {e:#}"));
     out

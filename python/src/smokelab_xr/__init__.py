@@ -6,6 +6,8 @@
 >>> run.volumes.u                  # (step, z, y, x_face): the staggered x-velocity
 >>> run.metrics.div_rms            # over step, with time as a coordinate
 >>> run.manifest["config"]["dt"]   # or run.volumes.attrs["config.dt"]
+>>> sweep = sx.open_sweep("runs/my-sweep")  # doctest: +SKIP
+>>> sweep.hot_mass.sel(res=16)     # one variable per metric, a dimension per axis
 
 Select by position, never by array index: ``run.volumes.hot.sel(x=5.0,
 method="nearest")``; the array order (``[z][y][x]``) and the staggering (u on
@@ -15,6 +17,7 @@ what each file becomes and ``smokelab_xr.grid`` for the conventions.
 
 from .grid import Grid
 from .run import NotARunError, Run, flatten_manifest, open_run
+from .sweep import open_sweep
 
-__all__ = ["Grid", "NotARunError", "Run", "flatten_manifest", "open_run"]
+__all__ = ["Grid", "NotARunError", "Run", "flatten_manifest", "open_run", "open_sweep"]
 __version__ = "0.1.0"

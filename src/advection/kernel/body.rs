@@ -215,17 +215,44 @@ macro_rules! kernel {
             acc
         }
 
+        /// The centre of the cell holding each lane's coordinate `g`
+        /// along one axis (`crate::grid::interpolant::cell_centre`'s
+        /// operations in its order: `⌊g + ½⌋` below 2²³ in magnitude,
+        /// `g + ½` beyond and for NaN).
+        #[inline(always)]
+        fn centre(g: F) -> F {
+            let s = add(g, splat(0.5));
+            let big = splat(crate::grid::interpolant::INTEGER_ABOVE);
+            let small = and(lt(s, big), gt(s, sub(splat(0.0), big)));
+            let (f, _) = floor(s);
+            sel(small, itof(f), s)
+        }
+
+        /// The coordinates each component is read at across its own axis
+        /// (`FaceSampler::at`): `g` (trilinear), or the centre of the cell
+        /// holding it (RT0).
+        #[inline(always)]
+        fn across(vel: &Vel, g: [F; 3]) -> [F; 3] {
+            if vel.rt0 {
+                [centre(g[0]), centre(g[1]), centre(g[2])]
+            } else {
+                g
+            }
+        }
+
         /// The velocity at cell-centre grid coordinates `g`: component `b`
-        /// trilinear on its lattice at `g + ½e_b`; and the lanes left.
+        /// on its lattice at `g + ½e_b`, its coordinates across `b` those
+        /// of [`across`]; and the lanes left.
         #[inline(always)]
         fn velocity(vel: &Vel, g: [F; 3]) -> ([F; 3], M) {
             // The three components written out (a loop stays a loop).
             let half = splat(0.5);
-            let s = stencil(vel.dims[0], vel.wrap, [add(g[0], half), g[1], g[2]]);
+            let c = across(vel, g);
+            let s = stencil(vel.dims[0], vel.wrap, [add(g[0], half), c[1], c[2]]);
             let (u, bad) = (apply(s, vel.data[0]), s.bad);
-            let s = stencil(vel.dims[1], vel.wrap, [g[0], add(g[1], half), g[2]]);
+            let s = stencil(vel.dims[1], vel.wrap, [c[0], add(g[1], half), c[2]]);
             let (v, bad) = (apply(s, vel.data[1]), or(bad, s.bad));
-            let s = stencil(vel.dims[2], vel.wrap, [g[0], g[1], add(g[2], half)]);
+            let s = stencil(vel.dims[2], vel.wrap, [c[0], c[1], add(g[2], half)]);
             ([u, v, apply(s, vel.data[2])], or(bad, s.bad))
         }
 
@@ -308,22 +335,23 @@ macro_rules! kernel {
         fn velocity2(vel: &Vel, g: [[F; 3]; 2]) -> [([F; 3], M); 2] {
             let half = splat(0.5);
             let [a, b] = g;
+            let (ca, cb) = (across(vel, a), across(vel, b));
             let (d, w) = (vel.dims, vel.wrap);
             let (sa, sb) = (
-                stencil(d[0], w, [add(a[0], half), a[1], a[2]]),
-                stencil(d[0], w, [add(b[0], half), b[1], b[2]]),
+                stencil(d[0], w, [add(a[0], half), ca[1], ca[2]]),
+                stencil(d[0], w, [add(b[0], half), cb[1], cb[2]]),
             );
             let (ua, ub) = (apply(sa, vel.data[0]), apply(sb, vel.data[0]));
             let (mut bad_a, mut bad_b) = (sa.bad, sb.bad);
             let (sa, sb) = (
-                stencil(d[1], w, [a[0], add(a[1], half), a[2]]),
-                stencil(d[1], w, [b[0], add(b[1], half), b[2]]),
+                stencil(d[1], w, [ca[0], add(a[1], half), ca[2]]),
+                stencil(d[1], w, [cb[0], add(b[1], half), cb[2]]),
             );
             let (va, vb) = (apply(sa, vel.data[1]), apply(sb, vel.data[1]));
             (bad_a, bad_b) = (or(bad_a, sa.bad), or(bad_b, sb.bad));
             let (sa, sb) = (
-                stencil(d[2], w, [a[0], a[1], add(a[2], half)]),
-                stencil(d[2], w, [b[0], b[1], add(b[2], half)]),
+                stencil(d[2], w, [ca[0], ca[1], add(a[2], half)]),
+                stencil(d[2], w, [cb[0], cb[1], add(b[2], half)]),
             );
             let (wa, wb) = (apply(sa, vel.data[2]), apply(sb, vel.data[2]));
             [([ua, va, wa], or(bad_a, sa.bad)), ([ub, vb, wb], or(bad_b, sb.bad))]

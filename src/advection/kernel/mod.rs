@@ -60,6 +60,9 @@ pub(crate) struct Vel<'a> {
     pub(crate) dims: [[usize; 3]; 3],
     pub(crate) cells: [usize; 3],
     pub(crate) wrap: Wrap,
+    /// Whether the velocity is read through the RT0 interpolant
+    /// ([`crate::grid::Interpolant::Rt0`]) rather than trilinear.
+    pub(crate) rt0: bool,
     /// Whether every lattice [`fits`] the lanes' `i32` indices; if not,
     /// everything takes the scalar reference ([`reference`]).
     fits: bool,
@@ -75,6 +78,7 @@ impl<'a> Vel<'a> {
             dims,
             cells,
             wrap,
+            rt0: sampler.interpolant() == crate::grid::Interpolant::Rt0,
             fits: dims.iter().all(|&d| fits(d)) && fits(cells),
         }
     }

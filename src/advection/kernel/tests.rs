@@ -7,7 +7,7 @@ use super::*;
 use crate::advection::{departure_point, Backtrace};
 use crate::domain::Domain;
 use crate::grid::face::BoxKind;
-use crate::grid::{FaceGrid, ScalarGrid};
+use crate::grid::{FaceGrid, Interpolant, ScalarGrid};
 
 /// A rough deterministic velocity (a hash of the face index in `[−s, s]`):
 /// at `s` of a few cells per step many departure points cross the
@@ -76,7 +76,8 @@ fn vec_bits(v: &[Vec3]) -> Vec<[u32; 3]> {
 }
 
 /// Boxes whose rows are as long as four lanes, shorter than eight and sixteen, not
-/// a multiple of them, and longer.
+/// a multiple of them, and longer; each velocity read through every
+/// interpolant.
 fn cases() -> Vec<(Domain, BoxKind, FaceGrid)> {
     let mut out = vec![];
     for dims in [[4, 4, 4], [5, 6, 4], [12, 7, 5], [21, 9, 6], [37, 5, 4]] {
@@ -89,7 +90,11 @@ fn cases() -> Vec<(Domain, BoxKind, FaceGrid)> {
     // Departure points more than a period outside (the reference's lanes).
     let d = Domain::new(Vec3::ZERO, 0.5, [17, 5, 4]).unwrap();
     out.push((d, BoxKind::Periodic, rough(d, BoxKind::Periodic, 60.0)));
-    out
+    out.into_iter()
+        .flat_map(|(d, kind, vel)| {
+            Interpolant::ALL.map(|i| (d, kind, vel.clone().with_interpolant(i)))
+        })
+        .collect()
 }
 
 #[test]
@@ -99,7 +104,7 @@ fn every_width_gives_the_scalar_bits_for_every_sweep_backtrace_and_gas_count() {
     for (d, kind, vel) in cases() {
         let dt = 0.2;
         for bt in Backtrace::ALL {
-            let what = format!("{:?} {kind} {bt:?}", d.dims);
+            let what = format!("{:?} {kind} {} {bt:?}", d.dims, vel.interpolant());
             // advect_faces
             let faces: Vec<_> = isas
                 .iter()
