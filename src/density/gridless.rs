@@ -47,6 +47,16 @@
 //! a batch, then the interpolant's divergence there point by point
 //! ([`crate::grid::face::FaceSampler::divergence_at`]), every step.
 //!
+//! With the RT0 interpolant ([`Interpolant::Rt0`]) the walks carry no
+//! factor: its divergence is exactly the compact divergence of the cell
+//! holding the point, zero to round-off in every wet cell, so `J` could
+//! only differ from 1 where a walk crosses into a wall, whose extended
+//! velocities are not divergence-free — and there it made the beads.
+//! Measured at slab-box 32³ (SL, RK2, 120 steps; cell-centre peak, and gas
+//! in the fluid over gas injected; the gridded peak 1.90): RT0 with `J`
+//! peaks at 5.18 and keeps 86 %, without it 2.09 and 86 %; trilinear with
+//! `J` 3.14 and 91 %, without 2.13 and 71 %.
+//!
 //! # One walk for several gases
 //! The positions and `J` depend only on the start points, the velocity
 //! history and the walls, which the gases of a simulation share (one
@@ -75,7 +85,7 @@ use crate::advection::{departure_points_wrapped, Backtrace};
 use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::field::{Scalar, ScalarField};
-use crate::grid::{FaceGrid, ScalarGrid};
+use crate::grid::{FaceGrid, Interpolant, ScalarGrid};
 
 /// One stored step of the velocity history.
 #[derive(Clone)]
@@ -158,7 +168,7 @@ impl GridlessField {
     }
 
     /// Read zero inside `walls`, and weight the walks by their volume
-    /// (module documentation). Walks are *not* stopped at their surface:
+    /// (module documentation; not through an RT0 velocity). Walks are *not* stopped at their surface:
     /// measured, stopping them loses more gas (slab-box 32³, SL, step 100:
     /// 62 % of the injected gas in the fluid cells with the stop, 94 %
     /// without; moving them to the surface after every stored step, on the
@@ -337,7 +347,7 @@ impl GridlessField {
         };
         for step in first.steps.iter().rev() {
             add(&g, &|f| f.source.as_ref(), step.dt, &volume);
-            if first.walls.is_some() {
+            if first.walls.is_some() && step.velocity.interpolant() != Interpolant::Rt0 {
                 step.scale_volumes(d, &g, &mut volume, &mut velocity);
             }
             step.walk_back(d, &mut g);
