@@ -12,16 +12,19 @@ fn git(args: &[&str]) -> Option<String> {
 }
 
 fn main() {
-    // Rebuild when the commit moves or any tracked source changes.
-    for path in [
-        ".git/HEAD",
-        ".git/index",
-        ".git/refs",
-        "src",
-        "experiments",
-        "Cargo.toml",
-    ] {
+    // Rebuild when the commit moves or any tracked source changes. The git
+    // files are asked of git, so that a linked worktree (whose `.git` is a
+    // file) names its own HEAD and index: a path that does not exist would
+    // rerun this script, and rebuild the library, on every cargo command.
+    for path in ["src", "experiments", "Cargo.toml"] {
         println!("cargo:rerun-if-changed={path}");
+    }
+    for name in ["HEAD", "index", "refs", "packed-refs"] {
+        if let Some(path) = git(&["rev-parse", "--git-path", name]) {
+            if std::path::Path::new(&path).exists() {
+                println!("cargo:rerun-if-changed={path}");
+            }
+        }
     }
     let commit = match git(&["rev-parse", "HEAD"]) {
         Some(c) => match git(&["status", "--porcelain", "--untracked-files=no"]) {

@@ -721,6 +721,7 @@ mod tests {
             gravity: Vec3::new(0.0, -1.0, 0.0),
             backtrace: Backtrace::Rk2,
             confinement,
+            interpolant: Interpolant::Trilinear,
         };
         let run = |confinement: f32, steps: usize| {
             let gas = Gas::new("hot", domain, &source, 1.0);

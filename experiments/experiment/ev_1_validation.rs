@@ -21,10 +21,10 @@
 //!   International Workshop on High-Order CFD Methods' case C3.5,
 //!   `smokelab run taylor-green-3d`) to t = 20 at Courant number 0.51, per
 //!   scheme, without and with vorticity confinement at ε =
-//!   [`crate::turbulence_benchmark::CONFINEMENT`]: the peak dissipation `−dE/dt` (centred
+//!   [`bench::CONFINEMENT`]: the peak dissipation `−dE/dt` (centred
 //!   differences of E every step) and its time, and the relative L2 misfit
 //!   of `E(t)` against the workshop's spectral DNS at 512³
-//!   (`crate::turbulence_benchmark`). No exact solution: the reference is
+//!   (`shared::turbulence_benchmark`). No exact solution: the reference is
 //!   a converged simulation, and the misfit is the scheme's numerical
 //!   dissipation (or the energy confinement adds) on top of the viscous
 //!   decay.
@@ -73,7 +73,7 @@
 //!
 //! Published values: the Taylor–Green vortex at Re = 1600 has its
 //! reference's peak dissipation and its time beside ours (read from the
-//! file, [`crate::turbulence_benchmark::REFERENCE_SOURCE`]). For the
+//! file, [`bench::REFERENCE_SOURCE`]). For the
 //! prescribed flows none is set yet. A directly comparable
 //! number needs the same test, resolution and norm, and Enright et al.
 //! 2002 measure a level set's volume, not a density's L1 return error —
@@ -92,9 +92,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::experiment::kit::{Context, Experiment, Size};
 use crate::experiment::shared::convergence_cases as cases;
+use crate::experiment::shared::turbulence_benchmark as bench;
 use crate::figures::plot::{LegendPosition, Plot, Series, Style};
 use crate::figures::table::{read_rows, write_rows};
-use crate::experiment::shared::turbulence_benchmark as bench;
 use smokelab::advection::Scheme;
 use smokelab::density::DensityMode;
 use smokelab::fit::observed_order;
@@ -433,7 +433,7 @@ pub struct HistoryRow {
 }
 
 /// The Taylor–Green vortex at Re = 1600 to t = 20, per scheme, without and
-/// with confinement ([`crate::turbulence_benchmark::CONFINEMENT`]), at each of `levels`: a row of
+/// with confinement ([`bench::CONFINEMENT`]), at each of `levels`: a row of
 /// `data.csv` per run, and every run's history.
 fn taylor_green_1600(ctx: &Context, levels: &[usize]) -> Result<(Vec<Row>, Vec<HistoryRow>)> {
     let reference = bench::reference()?;
@@ -534,11 +534,9 @@ fn draw_taylor_green_1600(dir: &std::path::Path) -> Result<()> {
             } else {
                 Style::Line
             };
-            plot = plot.series(
-                Series::line(*m, points)
-                    .styled(style)
-                    .colored(crate::plot::PALETTE[scheme % crate::plot::PALETTE.len()]),
-            );
+            plot = plot.series(Series::line(*m, points).styled(style).colored(
+                crate::figures::plot::PALETTE[scheme % crate::figures::plot::PALETTE.len()],
+            ));
         }
         plot
     };
@@ -778,7 +776,7 @@ const PUBLISHED: &[Published] = &[
         method: "pseudo-spectral DNS",
         res: "512³",
         value: "1.2857528e-2",
-        source: crate::turbulence_benchmark::REFERENCE_SOURCE,
+        source: bench::REFERENCE_SOURCE,
         status: "read from the file (assets/spectral_Re1600_512.gdiag): the largest −dE/dt of its rows every 0.01",
         ours: ("gridded", "maccormack"),
     },
@@ -788,7 +786,7 @@ const PUBLISHED: &[Published] = &[
         method: "pseudo-spectral DNS",
         res: "512³",
         value: "8.97",
-        source: crate::turbulence_benchmark::REFERENCE_SOURCE,
+        source: bench::REFERENCE_SOURCE,
         status: "read from the file: the time of its largest −dE/dt",
         ours: ("gridded", "maccormack"),
     },

@@ -6,8 +6,9 @@ mod common;
 use common::{num, table, Sandbox};
 
 /// A short run at 16³ writes `energy.csv` at every saved frame: the
-/// energy below E(0) = 1/8 and falling, the viscous dissipation 2νΩ with ν
-/// defaulting to 1/1600; confinement keeps more of the energy; a negative
+/// energy below E(0) = 1/8 and falling without confinement, the viscous
+/// dissipation 2νΩ with ν defaulting to 1/1600; confinement keeps more of
+/// the energy; a negative
 /// confinement and a closed box are refused with exit 2 naming the value.
 #[test]
 fn the_benchmark_logs_its_energy_and_enstrophy() {
@@ -33,7 +34,10 @@ fn the_benchmark_logs_its_energy_and_enstrophy() {
         ]);
         let rows = table(&d.join(out).join("energy.csv"));
         assert_eq!(rows.len(), 2, "rows at frames 5 and 10");
-        assert!(num(&rows[1], "energy") < num(&rows[0], "energy"));
+        if eps == "0" {
+            // Confinement adds energy (at ε = 0.5, 16³: 0.134 → 0.138).
+            assert!(num(&rows[1], "energy") < num(&rows[0], "energy"));
+        }
         for r in &rows {
             let ratio = num(r, "viscous_dissipation") / num(r, "enstrophy");
             assert!((ratio - 2.0 / 1600.0).abs() < 1e-9, "2ν: {ratio}");

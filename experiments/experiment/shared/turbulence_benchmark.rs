@@ -17,7 +17,7 @@ use smokelab::scenario::taylor_green_3d::TaylorGreen3dConfig;
 use smokelab::scenario::Scenario;
 
 /// The reference file, embedded.
-const REFERENCE: &str = include_str!("assets/spectral_Re1600_512.gdiag");
+const REFERENCE: &str = include_str!("../../assets/spectral_Re1600_512.gdiag");
 
 /// Where the reference comes from, for `published.csv`.
 pub const REFERENCE_SOURCE: &str = "International Workshop on High-Order CFD Methods, case C3.5: spectral DNS at 512³ (spectral_Re1600_512.gdiag of the workshop's data.tgz, cfd.ku.edu/hiocfd; PetIBM's copy)";
