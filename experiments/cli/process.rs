@@ -72,7 +72,8 @@ pub fn bad_value_message(e: &clap::Error, cmd: &clap::Command) -> Option<String>
         context(ContextKind::InvalidArg),
         context(ContextKind::InvalidValue),
     );
-    let not_a_number = std::error::Error::source(e).is_some_and(|s| s.is::<std::num::ParseIntError>());
+    let not_a_number =
+        std::error::Error::source(e).is_some_and(|s| s.is::<std::num::ParseIntError>());
     if let (true, Some(arg), Some(value)) = (not_a_number, arg, value) {
         if let Some((lo, hi)) = integer_range(cmd, arg) {
             return Some(format!(

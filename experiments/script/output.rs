@@ -206,7 +206,6 @@ impl Default for Recorder {
             non_finite: None,
         }
     }
-
 }
 
 impl Recorder {

@@ -219,7 +219,7 @@ fn initial_volumes_that_are_not_finite_or_not_whole_are_refused() {
     ndarray_npy::write_npy(sb.join("inf.npy"), &bad.mapv(|v| v as f32)).unwrap();
     let mut dict =
         "{'descr': '<f8', 'fortran_order': False, 'shape': (2000, 2000, 1250), }".to_string();
-    while (11 + dict.len()) % 64 != 0 {
+    while !(11 + dict.len()).is_multiple_of(64) {
         dict.push(' ');
     }
     dict.push('\n');
@@ -230,14 +230,26 @@ fn initial_volumes_that_are_not_finite_or_not_whole_are_refused() {
     std::fs::write(sb.join("big.npy"), &big).unwrap();
     let run = |file: &'static str| {
         [
-            "run", "deformation", "--res", "8", "--frames", "1", "--initial", file, "--quiet",
-            "--out", "o",
+            "run",
+            "deformation",
+            "--res",
+            "8",
+            "--frames",
+            "1",
+            "--initial",
+            file,
+            "--quiet",
+            "--out",
+            "o",
         ]
     };
     assert_refused(
         &sb,
         &run("nan.npy"),
-        &["initial nan.npy holds NaN at (z, y, x) = (2, 3, 4)", "finite"],
+        &[
+            "initial nan.npy holds NaN at (z, y, x) = (2, 3, 4)",
+            "finite",
+        ],
     );
     assert_refused(
         &sb,

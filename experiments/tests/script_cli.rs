@@ -670,7 +670,10 @@ fn a_script_that_never_ends_stops_at_its_limits() {
             err.contains("bad.rhai:2:") && err.contains(needle) && err.contains("--max-operations"),
             "{err}"
         );
-        assert!(!sb.join("o").exists(), "a script that wrote nothing left its folder");
+        assert!(
+            !sb.join("o").exists(),
+            "a script that wrote nothing left its folder"
+        );
     }
     let counting = "let n = 0;\nfor i in 0..2000 { n += i; }\n";
     let (code, err) = failing(&sb, counting, &["--out", "o", "--max-operations", "1000"]);
@@ -703,10 +706,7 @@ fn a_script_that_never_ends_stops_at_its_limits() {
 fn a_script_must_be_a_regular_file() {
     let sb = Sandbox::new();
     for file in ["/dev/zero", "."] {
-        let err = sb.refused(
-            &["script", file, "--out", "o"],
-            &["is not a regular file"],
-        );
+        let err = sb.refused(&["script", file, "--out", "o"], &["is not a regular file"]);
         assert_eq!(err.trim().lines().count(), 1, "{err}");
     }
     std::fs::write(sb.join("huge.rhai"), vec![b' '; (1 << 20) + 1]).unwrap();
@@ -760,9 +760,21 @@ fn imports_come_only_from_the_scripts_folders() {
 fn output_names_that_collide_are_refused() {
     let sb = Sandbox::new();
     let cases = [
-        ("let r = domain(8, 1.0);\nlet g = scalarcache(r, \"u\");\n", "bad.rhai:2:", "velocity's frames"),
-        ("let r = domain(8, 1.0);\nlet n = \"ve\" + \"l\";\nlet g = scalarcache(r, n);\n", "bad.rhai:3:", "velocity's frames"),
-        ("let r = domain(8, 1.0);\nwritenpy(\"hot_0001\", scalarfield(1.0), r);\n", "bad.rhai:2:", "named like a saved frame"),
+        (
+            "let r = domain(8, 1.0);\nlet g = scalarcache(r, \"u\");\n",
+            "bad.rhai:2:",
+            "velocity's frames",
+        ),
+        (
+            "let r = domain(8, 1.0);\nlet n = \"ve\" + \"l\";\nlet g = scalarcache(r, n);\n",
+            "bad.rhai:3:",
+            "velocity's frames",
+        ),
+        (
+            "let r = domain(8, 1.0);\nwritenpy(\"hot_0001\", scalarfield(1.0), r);\n",
+            "bad.rhai:2:",
+            "named like a saved frame",
+        ),
     ];
     for (text, at, needle) in cases {
         let (code, err) = failing(&sb, text, &["--out", "o"]);
@@ -777,7 +789,10 @@ fn output_names_that_collide_are_refused() {
         &["--out", "o"],
     );
     assert_eq!(code, Some(2), "{err}");
-    assert!(err.contains("bad.rhai:3:") && err.contains("written before"), "{err}");
+    assert!(
+        err.contains("bad.rhai:3:") && err.contains("written before"),
+        "{err}"
+    );
     let a = npy(&sb.join("o/a.npy"));
     assert!(a.iter().all(|&v| v == 1.0), "the first `a` was replaced");
 }
@@ -789,19 +804,36 @@ fn output_names_that_collide_are_refused() {
 #[test]
 fn non_finite_steps_and_fields_fail_loudly() {
     let sb = Sandbox::new();
-    let small = ["--set", "res=8", "--set", "frames=3", "--set", "save_every=3"];
+    let small = [
+        "--set",
+        "res=8",
+        "--set",
+        "frames=3",
+        "--set",
+        "save_every=3",
+    ];
     let file = script("hot_cold.rhai");
     let file = file.to_str().unwrap();
     for dt in ["nan", "inf"] {
         let set = format!("dt={dt}");
         let err = sb.refused(
-            &[&["script", file], &small[..], &["--set", &set, "--out", "dt"]].concat(),
+            &[
+                &["script", file],
+                &small[..],
+                &["--set", &set, "--out", "dt"],
+            ]
+            .concat(),
             &["inject: the time step is", "finite"],
         );
         assert_eq!(err.trim().lines().count(), 1, "{err}");
     }
     let err = sb.fails(
-        &[&["script", file], &small[..], &["--set", "gravity=inf", "--out", "g"]].concat(),
+        &[
+            &["script", file],
+            &small[..],
+            &["--set", "gravity=inf", "--out", "g"],
+        ]
+        .concat(),
         1,
     );
     assert_eq!(err.trim().lines().count(), 1, "{err}");
@@ -865,7 +897,10 @@ fn each_script_run_writes_a_fresh_folder_and_says_where() {
     }
     assert_ne!(wrote[0], wrote[1]);
     std::fs::write(sb.join("s.rhai"), "let a = 1;\nlet b = (2 + ;\n").unwrap();
-    for args in [&["script", "s.rhai"][..], &["script", "s.rhai", "--out", "o"]] {
+    for args in [
+        &["script", "s.rhai"][..],
+        &["script", "s.rhai", "--out", "o"],
+    ] {
         sb.refused(args, &["s.rhai:2:"]);
     }
     assert!(!sb.join("o").exists());

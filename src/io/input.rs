@@ -146,8 +146,9 @@ pub fn read_density_npy(path: &Path) -> Result<Array3<f32>, InputError> {
     let (dtype, _) = npy_header(path, WHAT, SHAPE, &[Dtype::F32, Dtype::F64], 3)?;
     match dtype {
         Dtype::F32 => read_checked(path, WHAT, SHAPE, &[Dtype::F32]),
-        Dtype::F64 => Ok(read_checked::<f64, _>(path, WHAT, SHAPE, &[Dtype::F64])?
-            .mapv(|v| v as f32)),
+        Dtype::F64 => {
+            Ok(read_checked::<f64, _>(path, WHAT, SHAPE, &[Dtype::F64])?.mapv(|v| v as f32))
+        }
     }
 }
 
@@ -204,8 +205,7 @@ fn read_checked<T: ReadableElement, D: Dimension>(
     let axes = D::NDIM.expect("a fixed number of axes");
     npy_header(path, what, shape, dtypes, axes)?;
     let file = open_regular(path, "volume")?;
-    Array::<T, D>::read_npy(BufReader::new(file))
-        .map_err(|e| bad_volume(path, what, shape, e))
+    Array::<T, D>::read_npy(BufReader::new(file)).map_err(|e| bad_volume(path, what, shape, e))
 }
 
 #[cfg(test)]
@@ -270,7 +270,7 @@ mod tests {
         // A header claiming 40 GB of f64 over 16 bytes of data.
         let mut dict =
             "{'descr': '<f8', 'fortran_order': False, 'shape': (2000, 2000, 1250), }".to_string();
-        while (11 + dict.len()) % 64 != 0 {
+        while !(11 + dict.len()).is_multiple_of(64) {
             dict.push(' ');
         }
         dict.push('\n');
