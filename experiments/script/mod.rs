@@ -226,7 +226,9 @@ fn engine(
             None => default,
         };
         if let (Ok(frames), "frames") = (value.as_int(), name) {
-            r.borrow().progress.set_length(frames.max(0) as u64);
+            let progress = &r.borrow().progress;
+            progress.set_style(progress_style("{wide_bar} step {pos}/{len}"));
+            progress.set_length(frames.max(0) as u64);
         }
         p.read.insert(name.to_string(), value.to_string());
         Ok::<_, Box<EvalAltResult>>(value)
@@ -257,16 +259,21 @@ fn default_folder(file: &Path) -> Result<PathBuf> {
     output_dir::create_fresh(&Path::new("runs").join(format!("script-{stem}-{secs}")))
 }
 
-/// The progress bar: elapsed time, the step recorded (of the script's
-/// `frames` once read) and the last frame saved; hidden with `--quiet`
-/// and when stderr is not a terminal.
+/// The progress line: elapsed time, `steps` (the step recorded; a bar of
+/// the script's `frames` once it reads that parameter) and the last frame
+/// saved.
+fn progress_style(steps: &str) -> ProgressStyle {
+    ProgressStyle::with_template(&format!("{{elapsed_precise}} {steps} {{msg}}"))
+        .expect("a valid template")
+}
+
+/// The progress line ([`progress_style`]), hidden with `--quiet` and when
+/// stderr is not a terminal.
 fn progress_bar(quiet: bool) -> ProgressBar {
     if quiet {
         return ProgressBar::hidden();
     }
-    let style = ProgressStyle::with_template("{elapsed_precise} {wide_bar} step {pos}/{len} {msg}")
-        .expect("a valid template");
-    ProgressBar::new(0).with_style(style)
+    ProgressBar::no_length().with_style(progress_style("step {pos}"))
 }
 
 /// Run a script: read and compile it, check the `--set` names, make the
