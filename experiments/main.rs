@@ -2,9 +2,9 @@
 
 use std::process::ExitCode;
 
-use clap::Parser;
+use clap::{CommandFactory, Parser};
 use smokelab::error::InputError;
-use smokelab_app::cli::{execute, Cli};
+use smokelab_app::cli::{execute, process, Cli};
 
 fn main() -> ExitCode {
     // Die quietly on a closed pipe (`smokelab experiment --list | head`)
@@ -26,7 +26,17 @@ fn main() -> ExitCode {
         std::process::exit(130);
     })
     .expect("no other interrupt handler is installed");
-    let cli = Cli::try_parse().unwrap_or_else(|e| e.exit());
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // A bad value: one line, naming the flag, the value and what is valid.
+        Err(e) => match process::bad_value_message(&e, &Cli::command()) {
+            Some(message) => {
+                eprintln!("error: {message}");
+                return ExitCode::from(2);
+            }
+            None => e.exit(),
+        },
+    };
     // An unknown or unavailable `SMOKELAB_SIMD` stops before any work.
     if let Err(e) = smokelab::simd::Isa::from_env() {
         eprintln!("error: {e}");

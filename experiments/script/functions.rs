@@ -50,7 +50,10 @@ use smokelab::model::{cloud, cut, shape, warp};
 use smokelab::noise::perlin::Perlin;
 use smokelab::pressure::PressurePrecision;
 
-use super::types::{Fallible, MatrixF, Region, ScalarCache, ScalarF, VectorCache, VectorF, V3};
+use super::output::{output_name, Named};
+use super::types::{
+    time_step, Fallible, MatrixF, Region, ScalarCache, ScalarF, VectorCache, VectorF, V3,
+};
 
 /// `x ↦` the departure point of `x` through a velocity cache over `Δt`: the
 /// same arithmetic as the library's gridless and SELMA densities
@@ -255,12 +258,15 @@ pub fn register(engine: &mut Engine, precision: PressurePrecision) {
     engine.register_fn("vectorfield", |v: V3| VectorF(ops::constant_vector(v.0)));
     engine.register_fn("identity", || VectorF(ops::identity()));
     engine.register_fn("mask", move |f: ScalarF| sf(ops::mask(f.field)));
-    engine.register_fn("inject", move |c: V3, dt: FLOAT| {
-        sf(ops::inject(c.0, 1.0, dt as f32))
+    engine.register_fn("inject", move |c: V3, dt: FLOAT| -> Fallible<ScalarF> {
+        Ok(sf(ops::inject(c.0, 1.0, time_step("inject", dt)?)))
     });
-    engine.register_fn("inject", move |c: V3, r: FLOAT, dt: FLOAT| {
-        sf(ops::inject(c.0, r as f32, dt as f32))
-    });
+    engine.register_fn(
+        "inject",
+        move |c: V3, r: FLOAT, dt: FLOAT| -> Fallible<ScalarF> {
+            Ok(sf(ops::inject(c.0, r as f32, time_step("inject", dt)?)))
+        },
+    );
     engine.register_fn("compose", move |f: ScalarF, x: VectorF| {
         sf(fa::compose(f.field, x.0))
     });
@@ -356,18 +362,33 @@ pub fn register(engine: &mut Engine, precision: PressurePrecision) {
     );
 
     // advect, by the kinds of its arguments.
-    engine.register_fn("advect", move |f: ScalarF, u: VectorF, dt: FLOAT| {
-        sf(ops::advect(f.field, u.0, dt as f32))
-    });
-    engine.register_fn("advect", |v: VectorF, u: VectorF, dt: FLOAT| {
-        VectorF(ops::advect_vector(v.0, u.0, dt as f32))
-    });
-    engine.register_fn("advect", move |f: ScalarF, u: VectorCache, dt: FLOAT| {
-        sf(fa::compose(f.field, departure(&u, dt as f32)))
-    });
+    engine.register_fn(
+        "advect",
+        move |f: ScalarF, u: VectorF, dt: FLOAT| -> Fallible<ScalarF> {
+            Ok(sf(ops::advect(f.field, u.0, time_step("advect", dt)?)))
+        },
+    );
+    engine.register_fn(
+        "advect",
+        |v: VectorF, u: VectorF, dt: FLOAT| -> Fallible<VectorF> {
+            Ok(VectorF(ops::advect_vector(
+                v.0,
+                u.0,
+                time_step("advect", dt)?,
+            )))
+        },
+    );
+    engine.register_fn(
+        "advect",
+        move |f: ScalarF, u: VectorCache, dt: FLOAT| -> Fallible<ScalarF> {
+            let dt = time_step("advect", dt)?;
+            Ok(sf(fa::compose(f.field, departure(&u, dt))))
+        },
+    );
     engine.register_fn(
         "advect",
         |c: ScalarCache, u: VectorCache, dt: FLOAT| -> Fallible<ScalarCache> {
+            let dt = time_step("advect", dt)?;
             if c.grid.domain() != u.0.domain() {
                 return Err(format!(
                     "advect: `{}` and the velocity are on different domains",
@@ -376,11 +397,11 @@ pub fn register(engine: &mut Engine, precision: PressurePrecision) {
                 .into());
             }
             let mut out = ScalarGrid::zeros(*c.grid.domain()).with_wrap(c.grid.wrap());
-            let grid = match with_quick(&u.0, dt as f32, |q| {
+            let grid = match with_quick(&u.0, dt, |q| {
                 q.advect_scalar(&c.grid, &mut out, Limiter::Ultimate)
             }) {
                 Some(done) => done.map(|()| out)?,
-                None => advect_cache(&c.grid, &u.0, dt as f32),
+                None => advect_cache(&c.grid, &u.0, dt),
             };
             Ok(ScalarCache {
                 grid: Arc::new(grid),
@@ -391,14 +412,15 @@ pub fn register(engine: &mut Engine, precision: PressurePrecision) {
     engine.register_fn(
         "advect",
         |v: VectorCache, u: VectorCache, dt: FLOAT| -> Fallible<VectorCache> {
+            let dt = time_step("advect", dt)?;
             if v.0.domain() != u.0.domain() || v.0.kind() != u.0.kind() {
                 return Err("advect: the two velocities are on different grids".into());
             }
             let mut out = FaceGrid::zeros(*u.0.domain(), u.0.kind());
-            if let Some(done) = with_quick(&u.0, dt as f32, |q| q.advect_faces(&v.0, &mut out)) {
+            if let Some(done) = with_quick(&u.0, dt, |q| q.advect_faces(&v.0, &mut out)) {
                 done?;
             } else {
-                advect_faces(&v.0, &u.0, dt as f32, Backtrace::default(), &mut out);
+                advect_faces(&v.0, &u.0, dt, Backtrace::default(), &mut out);
             }
             Ok(VectorCache(Arc::new(out)))
         },
@@ -417,21 +439,27 @@ pub fn register(engine: &mut Engine, precision: PressurePrecision) {
         "diffuse",
         |v: VectorCache, region: Region, nu: FLOAT, dt: FLOAT| -> Fallible<VectorCache> {
             on_region("diffuse", &v, &region)?;
+            let dt = time_step("diffuse", dt)?;
             let mut out = (*v.0).clone();
             region
                 .solver
                 .borrow_mut()
-                .diffuse(&mut out, nu as f32, dt as f32)
+                .diffuse(&mut out, nu as f32, dt)
                 .map_err(|e| format!("diffuse: {e}"))?;
             Ok(VectorCache(Arc::new(out)))
         },
     );
 
     // caches
-    engine.register_fn("scalarcache", |r: Region, name: &str| ScalarCache {
-        name: name.to_string(),
-        grid: Arc::new(ScalarGrid::zeros(r.domain).with_wrap(r.kind.wrap())),
-    });
+    engine.register_fn(
+        "scalarcache",
+        |r: Region, name: &str| -> Fallible<ScalarCache> {
+            Ok(ScalarCache {
+                name: output_name("scalarcache", name, Named::Gas)?,
+                grid: Arc::new(ScalarGrid::zeros(r.domain).with_wrap(r.kind.wrap())),
+            })
+        },
+    );
     engine.register_fn("vectorcache", |r: Region| {
         VectorCache(Arc::new(FaceGrid::zeros(r.domain, r.kind)))
     });

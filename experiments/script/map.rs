@@ -130,7 +130,7 @@ pub fn register(engine: &mut Engine) {
                     "advect: the mapcache and the velocity are on different domains".into(),
                 );
             }
-            Ok(m.advect(&u.0, dt as f32))
+            Ok(m.advect(&u.0, super::types::time_step("advect", dt)?))
         },
     );
     engine.register_fn("cacheread", |m: MapCache| VectorF(Arc::new(MapField(m.0))));

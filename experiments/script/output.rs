@@ -22,7 +22,17 @@
 //! - `manifest.json` at the end ([`crate::script::run`]).
 //!
 //! Names are file names — letters, digits, `_` and `-` — so nothing is
-//! written outside `--out`.
+//! written outside `--out` — and no name may collide with another output
+//! of the script ([`output_name`]): a gas or array is not named after the
+//! velocity (`u`, `v`, `w`, `vel`: [`RESERVED`]), an array's name is not a
+//! frame's
+//! (`hot_0001`), nor an array's written before. A name is checked when its
+//! cache is made (`scalarcache`) or its array written; nothing is written
+//! under a refused name.
+//!
+//! Every write checks its fields are finite: a non-finite velocity or gas
+//! stops the script (exit 1) naming the step and the field, instead of
+//! writing NaN frames and a "complete" manifest.
 
 use std::cell::RefCell;
 use std::path::PathBuf;
@@ -30,6 +40,7 @@ use std::rc::Rc;
 use std::time::Instant;
 
 use glam::Vec3;
+use indicatif::ProgressBar;
 use rhai::{Array, Engine, FLOAT, INT};
 use serde::Serialize;
 use smokelab::density::probe::DensityMeasures;
@@ -90,7 +101,10 @@ pub fn columns(gases: &[String]) -> Vec<String> {
 
 /// The output folder and what has been written to it.
 pub struct Recorder {
+    /// The folder, once [`Recorder::open`] gave it.
     out: PathBuf,
+    /// Progress on stderr: the step recorded, of the script's `frames`.
+    pub progress: ProgressBar,
     /// A simulation holding the script's state, for the run's writers.
     shell: Option<Simulation>,
     /// The fine measures' state, on the first recorded grid.
@@ -101,10 +115,48 @@ pub struct Recorder {
     pub saved_frames: Vec<usize>,
     /// Other files written (`writenpy`).
     pub files: Vec<String>,
+    /// Set when a write found a non-finite field: the step and the field
+    /// (the script then fails with exit 1, not as the user's mistake).
+    pub non_finite: Option<String>,
+}
+
+/// Names a gas may not take: the velocity's, whose frames `u_NNNN.npy`,
+/// `v_…`, `w_…` and `vel_NNNN.npy` sit beside the gases' `<gas>_NNNN.npy`.
+pub const RESERVED: [&str; 4] = ["u", "v", "w", "vel"];
+
+/// What a name is given to: a gas (`scalarcache`) or an array (`writenpy`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Named {
+    /// A scalar cache, saved as `<name>_NNNN.npy` frames.
+    Gas,
+    /// An array written once as `<name>.npy`.
+    Array,
+}
+
+/// `name` if it is a plain file name that collides with no other output
+/// of the script (see the module documentation), else why not.
+pub fn output_name(what: &str, name: &str, named: Named) -> Result<String, String> {
+    let name = file_name(what, name)?;
+    if named == Named::Gas && RESERVED.contains(&name.as_str()) {
+        return Err(format!(
+            "{what}: a gas named `{name}` would collide with the velocity's frames \
+             ({name}_NNNN.npy); a gas may not be named {}",
+            RESERVED.join(", ")
+        ));
+    }
+    if named == Named::Array
+        && crate::run::output_dir::is_frame_file(&format!("{name}.npy"), &["npy"])
+    {
+        return Err(format!(
+            "{what}: `{name}` is named like a saved frame (<gas>_NNNN) and could replace one; \
+             choose a name that does not end in _ and four or more digits"
+        ));
+    }
+    Ok(name)
 }
 
 /// `name` if it is a plain file name, else the refusal.
-pub fn file_name(what: &str, name: &str) -> Fallible<String> {
+fn file_name(what: &str, name: &str) -> Result<String, String> {
     let ok = !name.is_empty()
         && name.len() <= 64
         && name
@@ -116,8 +168,7 @@ pub fn file_name(what: &str, name: &str) -> Fallible<String> {
         Err(format!(
             "{what}: `{name}` is not a file name; a script writes only inside --out, \
              under names of letters, digits, `_` and `-`"
-        )
-        .into())
+        ))
     }
 }
 
@@ -131,7 +182,7 @@ fn gases(a: &Array, what: &str) -> Fallible<Vec<ScalarCache>> {
                 d.type_name()
             )
         })?;
-        file_name(what, &c.name)?;
+        output_name(what, &c.name, Named::Gas)?;
         if out.iter().any(|o| o.name == c.name) {
             return Err(format!("{what}: two gases are named `{}`", c.name).into());
         }
@@ -140,18 +191,34 @@ fn gases(a: &Array, what: &str) -> Fallible<Vec<ScalarCache>> {
     Ok(out)
 }
 
-impl Recorder {
-    /// Write into `out` (which exists).
-    pub fn new(out: PathBuf) -> Self {
+impl Default for Recorder {
+    /// A recorder with no folder yet (the script is compiled first).
+    fn default() -> Self {
         Self {
-            out,
+            out: PathBuf::new(),
+            progress: ProgressBar::hidden(),
             shell: None,
             probes: None,
             log: None,
             last_row: Instant::now(),
             saved_frames: vec![],
             files: vec![],
+            non_finite: None,
         }
+    }
+}
+
+impl Recorder {
+    /// Write into `out` (which exists), showing progress on `progress`.
+    pub fn open(&mut self, out: PathBuf, progress: ProgressBar) {
+        self.out = out;
+        self.progress = progress;
+        self.last_row = Instant::now();
+    }
+
+    /// Whether nothing was written yet: no frame, metrics row or array.
+    pub fn wrote_nothing(&self) -> bool {
+        self.saved_frames.is_empty() && self.files.is_empty() && self.log.is_none()
     }
 
     /// The names of the gases of the first `save`/`record`, in order.
@@ -182,7 +249,21 @@ impl Recorder {
         velocity: &VectorCache,
         caches: &[ScalarCache],
         what: &str,
+        step: usize,
     ) -> Fallible<&Simulation> {
+        let fields = std::iter::once(("the velocity".to_string(), velocity.0.is_finite())).chain(
+            caches
+                .iter()
+                .map(|c| (format!("the gas `{}`", c.name), c.grid.is_finite())),
+        );
+        for (field, finite) in fields {
+            if !finite {
+                return Err(self.fail(format!(
+                    "{what}: {field} became non-finite by step {step}; nothing of step {step} \
+                     was written"
+                )));
+            }
+        }
         let domain = *velocity.0.domain();
         if caches.iter().any(|c| c.grid.domain() != &domain) {
             return Err(format!("{what}: a gas is not on the velocity's domain").into());
@@ -255,9 +336,10 @@ impl Recorder {
         let frame = usize::try_from(frame).map_err(|_| format!("save: frame is {frame}"))?;
         let caches = gases(g, "save")?;
         let out = self.out.clone();
-        let sim = self.load(velocity, &caches, "save")?;
+        let sim = self.load(velocity, &caches, "save", frame)?;
         crate::run::write_frame(sim, &out, frame, None).map_err(|e| format!("save: {e:#}"))?;
         self.saved_frames.push(frame);
+        self.progress.set_message(format!("frame {frame} saved"));
         Ok(())
     }
 
@@ -270,10 +352,11 @@ impl Recorder {
         fine: bool,
     ) -> Fallible<()> {
         let step = usize::try_from(frame).map_err(|_| format!("record: frame is {frame}"))?;
+        super::types::time_step("record", dt)?;
         let caches = gases(g, "record")?;
         let out = self.out.join("metrics.csv");
         let elapsed = self.last_row.elapsed().as_secs_f64();
-        self.load(velocity, &caches, "record")?;
+        self.load(velocity, &caches, "record", step)?;
         let sim = self.shell.as_ref().expect("loaded above");
         let domain = *sim.domain();
         let probes = self.probes.get_or_insert_with(|| FineProbes::new(domain));
@@ -317,15 +400,34 @@ impl Recorder {
         }
         let log = self.log.as_mut().expect("created above");
         log.push(&row).map_err(|e| format!("record: {e:#}"))?;
+        self.progress.set_position(step as u64);
         self.last_row = Instant::now();
         Ok(())
     }
 
+    /// Record the non-finite failure `why`; the error that stops the script.
+    fn fail(&mut self, why: String) -> Box<rhai::EvalAltResult> {
+        self.non_finite = Some(why.clone());
+        why.into()
+    }
+
     fn write_npy(&mut self, name: &str, grid: &ScalarGrid) -> Fallible<()> {
-        let name = file_name("writenpy", name)?;
-        let path = self.out.join(format!("{name}.npy"));
-        io::write_npy3(&path, grid.data()).map_err(|e| format!("writenpy: {e:#}"))?;
-        self.files.push(format!("{name}.npy"));
+        let name = output_name("writenpy", name, Named::Array)?;
+        let file = format!("{name}.npy");
+        if self.files.contains(&file) {
+            return Err(format!(
+                "writenpy: `{name}` was written before; each array needs a name of its own"
+            )
+            .into());
+        }
+        if !grid.is_finite() {
+            return Err(self.fail(format!(
+                "writenpy: the array `{name}` is not finite; {name}.npy was not written"
+            )));
+        }
+        io::write_npy3(&self.out.join(&file), grid.data())
+            .map_err(|e| format!("writenpy: {e:#}"))?;
+        self.files.push(file);
         Ok(())
     }
 }

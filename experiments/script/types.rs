@@ -51,6 +51,17 @@ use smokelab::simulation::SOURCE_REFINE;
 /// A native function's failure, shown with the script's position.
 pub type Fallible<T> = Result<T, Box<EvalAltResult>>;
 
+/// A script's time step `dt` given to `what`, as the f32 the verbs take;
+/// refused unless finite (in f32 too: `1e39` is not).
+pub fn time_step(what: &str, dt: FLOAT) -> Fallible<f32> {
+    let t = dt as f32;
+    if t.is_finite() {
+        Ok(t)
+    } else {
+        Err(format!("{what}: the time step is {dt}; it must be a finite number").into())
+    }
+}
+
 /// A field's cell averages on one domain, once computed.
 type Averages = Option<(Domain, Arc<ScalarGrid>)>;
 

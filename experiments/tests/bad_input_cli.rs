@@ -203,3 +203,103 @@ fn selma_remap_without_selma_is_refused() {
         "o",
     ]);
 }
+
+/// `--initial` holding NaN or ∞ ran to a "complete" run of NaN, and an
+/// f64 `.npy` whose header claims 40 GB aborted (exit 134) allocating it:
+/// both are refused with exit 2 naming the file (and the first bad index),
+/// before anything is written.
+#[test]
+fn initial_volumes_that_are_not_finite_or_not_whole_are_refused() {
+    let sb = Sandbox::new();
+    let mut bad = ndarray::Array3::<f64>::from_elem((8, 8, 8), 0.5);
+    bad[[2, 3, 4]] = f64::NAN;
+    ndarray_npy::write_npy(sb.join("nan.npy"), &bad).unwrap();
+    bad[[2, 3, 4]] = 0.5;
+    bad[[7, 0, 1]] = f64::INFINITY;
+    ndarray_npy::write_npy(sb.join("inf.npy"), &bad.mapv(|v| v as f32)).unwrap();
+    let mut dict =
+        "{'descr': '<f8', 'fortran_order': False, 'shape': (2000, 2000, 1250), }".to_string();
+    while !(11 + dict.len()).is_multiple_of(64) {
+        dict.push(' ');
+    }
+    dict.push('\n');
+    let mut big = b"\x93NUMPY\x01\x00".to_vec();
+    big.extend((dict.len() as u16).to_le_bytes());
+    big.extend(dict.bytes());
+    big.extend([0u8; 64]);
+    std::fs::write(sb.join("big.npy"), &big).unwrap();
+    let run = |file: &'static str| {
+        [
+            "run",
+            "deformation",
+            "--res",
+            "8",
+            "--frames",
+            "1",
+            "--initial",
+            file,
+            "--quiet",
+            "--out",
+            "o",
+        ]
+    };
+    assert_refused(
+        &sb,
+        &run("nan.npy"),
+        &[
+            "initial nan.npy holds NaN at (z, y, x) = (2, 3, 4)",
+            "finite",
+        ],
+    );
+    assert_refused(
+        &sb,
+        &run("inf.npy"),
+        &["initial inf.npy holds inf at (z, y, x) = (7, 0, 1)"],
+    );
+    assert_refused(
+        &sb,
+        &run("big.npy"),
+        &[
+            "big.npy",
+            "declares shape [2000, 2000, 1250] (40000000000 bytes of data)",
+        ],
+    );
+    assert!(!sb.join("o").exists());
+}
+
+/// A whole-number flag given a value outside its type said "invalid digit
+/// found in string" (`--frames -5`) or panicked (`--seed
+/// 99999999999999999999`), over several lines: now one line naming the
+/// flag, the value and the range, exit 2.
+#[test]
+fn whole_number_flags_out_of_range_name_their_range() {
+    let sb = Sandbox::new();
+    let u64_range = "expected a whole number from 0 to 18446744073709551615";
+    let cases: [(&[&str], String); 4] = [
+        (
+            &["run", "hot-cold", "--seed", "99999999999999999999"],
+            format!("invalid value '99999999999999999999' for '--seed <SEED>': {u64_range}"),
+        ),
+        (
+            &["run", "hot-cold", "--frames", "-5"],
+            format!("invalid value '-5' for '--frames <FRAMES>': {u64_range}"),
+        ),
+        (
+            &["noise", "value", "--seed", "18446744073709551616"],
+            format!("'18446744073709551616' for '--seed <SEED>': {u64_range}"),
+        ),
+        (
+            &["script", "x.rhai", "--max-operations", "0"],
+            "'0' for '--max-operations <N>'".to_string(),
+        ),
+    ];
+    for (args, needle) in cases {
+        let err = sb.refused(args, &[&needle]);
+        assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
+        assert!(
+            !err.contains("invalid digit") && !err.contains("usize"),
+            "{err}"
+        );
+    }
+    assert!(!sb.join("runs").exists());
+}

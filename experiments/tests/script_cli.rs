@@ -647,3 +647,262 @@ fn a_script_cannot_write_outside_its_out_folder() {
     assert_eq!(code, Some(0), "{err}");
     assert!(d.join("o/ok.npy").is_file());
 }
+
+/// `loop { }` stops at the operation limit with one line naming it and
+/// the flag (exit 2), at the default limit and at `--max-operations`; a
+/// script that needs more runs with a higher limit. Runaway recursion, an
+/// array and a string without end stop at their limits too.
+#[test]
+fn a_script_that_never_ends_stops_at_its_limits() {
+    let sb = Sandbox::new();
+    for (args, needle) in [
+        (vec![], "10000000 operations"),
+        (vec!["--max-operations", "5000"], "5000 operations"),
+    ] {
+        let (code, err) = failing(
+            &sb,
+            "let a = 1;\nloop { a += 1; }\n",
+            &[&["--out", "o"], &args[..]].concat(),
+        );
+        assert_eq!(code, Some(2), "{err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("bad.rhai:2:") && err.contains(needle) && err.contains("--max-operations"),
+            "{err}"
+        );
+        assert!(
+            !sb.join("o").exists(),
+            "a script that wrote nothing left its folder"
+        );
+    }
+    let counting = "let n = 0;\nfor i in 0..2000 { n += i; }\n";
+    let (code, err) = failing(&sb, counting, &["--out", "o", "--max-operations", "1000"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("1000 operations"), "{err}");
+    let (code, err) = failing(&sb, counting, &["--out", "o", "--max-operations", "100000"]);
+    assert_eq!(code, Some(0), "{err}");
+    let cases = [
+        ("fn f(n) { f(n + 1) }\nf(0);\n", "deeper than 64 levels"),
+        ("let a = [];\nloop { a.push(1); }\n", "10000 elements"),
+        ("let s = \"x\";\nloop { s += s; }\n", "1048576 bytes"),
+    ];
+    for (text, needle) in cases {
+        let (code, err) = failing(&sb, text, &["--out", "o"]);
+        assert_eq!(code, Some(2), "{text}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(needle), "{text}: {err}");
+    }
+    // The limit itself must be at least 1.
+    let err = sb.refused(
+        &["script", "bad.rhai", "--max-operations", "0"],
+        &["--max-operations"],
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}
+
+/// The script must be a regular file of bounded size: `/dev/zero` (which
+/// ate memory) and a folder are refused before anything is written.
+#[test]
+fn a_script_must_be_a_regular_file() {
+    let sb = Sandbox::new();
+    for file in ["/dev/zero", "."] {
+        let err = sb.refused(&["script", file, "--out", "o"], &["is not a regular file"]);
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+    }
+    std::fs::write(sb.join("huge.rhai"), vec![b' '; (1 << 20) + 1]).unwrap();
+    sb.refused(
+        &["script", "huge.rhai", "--out", "o"],
+        &["larger than 1048576 bytes"],
+    );
+    assert!(!sb.join("o").exists());
+}
+
+/// `import` reads modules from the script's own folder (and the shipped
+/// scripts'), never from a path: `..`, absolute paths and subfolders are
+/// refused, and a symbolic link out of the folder too.
+#[test]
+fn imports_come_only_from_the_scripts_folders() {
+    let sb = Sandbox::new();
+    std::fs::write(sb.join("twice.rhai"), "fn twice(x) { 2 * x }\n").unwrap();
+    let (code, err) = failing(
+        &sb,
+        "import \"twice\" as m;\nif m::twice(21) != 42 { throw \"wrong\"; }\n",
+        &["--out", "o"],
+    );
+    assert_eq!(code, Some(0), "{err}");
+    let outside = tempfile::tempdir().unwrap();
+    let secret = outside.path().join("secret.rhai");
+    std::fs::write(&secret, "fn twice(x) { 2 * x }\n").unwrap();
+    std::fs::create_dir(sb.join("sub")).unwrap();
+    std::fs::write(sb.join("sub/twice.rhai"), "fn twice(x) { 2 * x }\n").unwrap();
+    std::os::unix::fs::symlink(&secret, sb.join("link.rhai")).unwrap();
+    let stem = secret.with_extension("");
+    for path in ["../twice", stem.to_str().unwrap(), "sub/twice", "link"] {
+        let (code, err) = failing(&sb, &format!("import \"{path}\" as m;\n"), &["--out", "p"]);
+        assert_eq!(code, Some(2), "{path}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(
+            err.contains("bad.rhai:1:") && err.contains("only"),
+            "{path}: {err}"
+        );
+    }
+    let (code, err) = failing(&sb, "import \"nosuch\" as m;\n", &["--out", "p"]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("no nosuch.rhai in"), "{err}");
+    assert!(!sb.join("p").exists());
+}
+
+/// A gas named like the velocity's frames (`u`, `vel`), an array named
+/// like a saved frame (`hot_0001`) or like an array written before is
+/// refused (exit 2) where it is named; a script that wrote nothing leaves
+/// no folder.
+#[test]
+fn output_names_that_collide_are_refused() {
+    let sb = Sandbox::new();
+    let cases = [
+        (
+            "let r = domain(8, 1.0);\nlet g = scalarcache(r, \"u\");\n",
+            "bad.rhai:2:",
+            "velocity's frames",
+        ),
+        (
+            "let r = domain(8, 1.0);\nlet n = \"ve\" + \"l\";\nlet g = scalarcache(r, n);\n",
+            "bad.rhai:3:",
+            "velocity's frames",
+        ),
+        (
+            "let r = domain(8, 1.0);\nwritenpy(\"hot_0001\", scalarfield(1.0), r);\n",
+            "bad.rhai:2:",
+            "named like a saved frame",
+        ),
+    ];
+    for (text, at, needle) in cases {
+        let (code, err) = failing(&sb, text, &["--out", "o"]);
+        assert_eq!(code, Some(2), "{text}: {err}");
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+        assert!(err.contains(at) && err.contains(needle), "{text}: {err}");
+        assert!(!sb.join("o").exists(), "{text}: the folder was left");
+    }
+    let (code, err) = failing(
+        &sb,
+        "let r = domain(8, 1.0);\nwritenpy(\"a\", scalarfield(1.0), r);\nwritenpy(\"a\", scalarfield(2.0), r);\n",
+        &["--out", "o"],
+    );
+    assert_eq!(code, Some(2), "{err}");
+    assert!(
+        err.contains("bad.rhai:3:") && err.contains("written before"),
+        "{err}"
+    );
+    let a = npy(&sb.join("o/a.npy"));
+    assert!(a.iter().all(|&v| v == 1.0), "the first `a` was replaced");
+}
+
+/// A non-finite time step is refused (exit 2) where it is first used; a
+/// velocity that becomes non-finite — the closed box's blow-up once exited
+/// 0 "complete" with NaN fields and `max_u 0.0` — stops the script (exit
+/// 1) naming the step and the field, and nothing of it is written.
+#[test]
+fn non_finite_steps_and_fields_fail_loudly() {
+    let sb = Sandbox::new();
+    let small = [
+        "--set",
+        "res=8",
+        "--set",
+        "frames=3",
+        "--set",
+        "save_every=3",
+    ];
+    let file = script("hot_cold.rhai");
+    let file = file.to_str().unwrap();
+    for dt in ["nan", "inf"] {
+        let set = format!("dt={dt}");
+        let err = sb.refused(
+            &[
+                &["script", file],
+                &small[..],
+                &["--set", &set, "--out", "dt"],
+            ]
+            .concat(),
+            &["inject: the time step is", "finite"],
+        );
+        assert_eq!(err.trim().lines().count(), 1, "{err}");
+    }
+    let err = sb.fails(
+        &[
+            &["script", file],
+            &small[..],
+            &["--set", "gravity=inf", "--out", "g"],
+        ]
+        .concat(),
+        1,
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("hot_cold.rhai:")
+            && err.contains("record: the velocity became non-finite by step 1"),
+        "{err}"
+    );
+    assert!(!sb.join("g").exists() && !sb.join("dt").exists());
+}
+
+/// A script that fails after writing keeps what it wrote under a manifest
+/// that says so (exit 1 for a non-finite array, naming the folder), and the
+/// corrected script runs into the same folder without `--overwrite`, which
+/// a complete run's folder still needs.
+#[test]
+fn a_failed_script_does_not_block_the_corrected_rerun() {
+    let sb = Sandbox::new();
+    let text = "let r = domain(8, 1.0);\nwritenpy(\"a\", scalarfield(1.0), r);\nwritenpy(\"b\", scalarfield(1.0) / 0.0, r);\n";
+    std::fs::write(sb.join("f.rhai"), text).unwrap();
+    let err = sb.fails(&["script", "f.rhai", "--out", "o"], 1);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("f.rhai:3:") && err.contains("`b` is not finite") && err.contains("in o"),
+        "{err}"
+    );
+    assert_eq!(sb.manifest("o")["status"], "failed");
+    assert!(sb.join("o/a.npy").is_file() && !sb.join("o/b.npy").exists());
+    std::fs::write(sb.join("f.rhai"), text.replace("/ 0.0", "/ 2.0")).unwrap();
+    let o = sb.ok(&["script", "f.rhai", "--out", "o"]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("wrote o"));
+    assert_eq!(sb.manifest("o")["status"], "complete");
+    assert!(npy(&sb.join("o/b.npy")).iter().all(|&v| v == 0.5));
+    sb.refused(&["script", "f.rhai", "--out", "o"], &["--overwrite"]);
+}
+
+/// Without `--out` each run gets a folder of its own (the same script
+/// twice in one second: a suffix), named on stdout; a syntax error
+/// creates nothing.
+#[test]
+fn each_script_run_writes_a_fresh_folder_and_says_where() {
+    let sb = Sandbox::new();
+    std::fs::write(
+        sb.join("w.rhai"),
+        "let r = domain(8, 1.0);\nwritenpy(\"a\", scalarfield(1.0), r);\n",
+    )
+    .unwrap();
+    let mut wrote = Vec::new();
+    for _ in 0..2 {
+        let o = sb.ok(&["script", "w.rhai"]);
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        let dir = out
+            .trim()
+            .rsplit_once("wrote ")
+            .map(|(_, d)| d.to_string())
+            .unwrap_or_else(|| panic!("no folder named: {out}"));
+        assert!(dir.starts_with("runs/script-w-"), "{dir}");
+        assert_eq!(sb.manifest(&dir)["status"], "complete");
+        assert!(sb.join(&dir).join("a.npy").is_file());
+        wrote.push(dir);
+    }
+    assert_ne!(wrote[0], wrote[1]);
+    std::fs::write(sb.join("s.rhai"), "let a = 1;\nlet b = (2 + ;\n").unwrap();
+    for args in [
+        &["script", "s.rhai"][..],
+        &["script", "s.rhai", "--out", "o"],
+    ] {
+        sb.refused(args, &["s.rhai:2:"]);
+    }
+    assert!(!sb.join("o").exists());
+    assert_eq!(std::fs::read_dir(sb.join("runs")).unwrap().count(), 2);
+}

@@ -225,6 +225,13 @@ impl PrescribedKeys {
                 data.shape()
             )));
         }
+        if let Some(((k, j, i), v)) = data.indexed_iter().find(|(_, v)| !v.is_finite()) {
+            return Err(InputError::new(format!(
+                "initial {} holds {v} at (z, y, x) = ({k}, {j}, {i}), its first non-finite value; \
+                 a density must be finite everywhere",
+                path.display()
+            )));
+        }
         Ok(ScalarGrid::from_array(*domain, data))
     }
 
