@@ -26,7 +26,21 @@ fn main() -> ExitCode {
         std::process::exit(130);
     })
     .expect("no other interrupt handler is installed");
-    let cli = Cli::try_parse().unwrap_or_else(|e| e.exit());
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // Help and version print as clap lays them out.
+        Err(e)
+            if !e.use_stderr()
+                || e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
+            e.exit()
+        }
+        Err(e) => {
+            let args: Vec<String> = std::env::args().collect();
+            eprintln!("{}", smokelab_app::cli::one_line_error(&e, &args));
+            return ExitCode::from(2);
+        }
+    };
     // An unknown or unavailable `SMOKELAB_SIMD` stops before any work.
     if let Err(e) = smokelab::simd::Isa::from_env() {
         eprintln!("error: {e}");

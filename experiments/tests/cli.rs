@@ -17,9 +17,10 @@ fn assert_rejected(args: &[&str], needle: &str) {
         err.contains(needle),
         "{args:?}: stderr {err:?} does not mention {needle:?}"
     );
-    assert!(
-        err.lines().filter(|l| !l.trim().is_empty()).count() <= 4,
-        "{args:?}: message too long: {err}"
+    assert_eq!(
+        err.lines().filter(|l| !l.trim().is_empty()).count(),
+        1,
+        "{args:?}: not one line: {err}"
     );
     assert!(
         !sb.join("out").exists(),
@@ -328,8 +329,17 @@ fn experiment_06_1_smoke_gases_pass_each_other_unless_head_on() {
 #[test]
 fn experiment_all_smoke_runs_every_experiment_and_tabulates() {
     let sb = Sandbox::new();
-    sb.ok(&["experiment", "all", "--smoke", "--quiet", "--out", "all"]);
-    let table = std::fs::read_to_string(sb.join("all/experiments.csv")).unwrap();
+    // Without --out: a new folder of its own under runs/.
+    sb.ok(&["experiment", "all", "--smoke", "--quiet"]);
+    let runs: Vec<_> = std::fs::read_dir(sb.join("runs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert!(
+        runs.len() == 1 && runs[0].file_name().unwrap().to_string_lossy().starts_with("all-smoke-"),
+        "{runs:?}"
+    );
+    let table = std::fs::read_to_string(runs[0].join("experiments.csv")).unwrap();
     let list = String::from_utf8(sb.run(&["experiment", "--list"]).stdout).unwrap();
     // One row per experiment of the listing (header excluded), each "ok",
     // each output folder written.
