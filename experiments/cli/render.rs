@@ -390,7 +390,10 @@ fn common_frame(paths: &[PathBuf]) -> Option<usize> {
             .flatten()
     };
     let first = frame(paths.first()?)?;
-    paths.iter().all(|p| frame(p) == Some(first)).then_some(first)
+    paths
+        .iter()
+        .all(|p| frame(p) == Some(first))
+        .then_some(first)
 }
 
 /// The box of volumes of `shape` `(nz, ny, nx)`: with a run, its origin and

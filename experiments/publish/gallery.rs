@@ -590,7 +590,10 @@ mod tests {
             shown_command("/usr/bin/smokelab experiment P-1 --peers=/x/python"),
             "smokelab experiment P-1 --peers=PYTHON"
         );
-        assert_eq!(shown_command("smokelab run --out smokelab"), "smokelab run --out smokelab");
+        assert_eq!(
+            shown_command("smokelab run --out smokelab"),
+            "smokelab run --out smokelab"
+        );
     }
 
     #[test]

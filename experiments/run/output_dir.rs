@@ -154,7 +154,10 @@ fn replaced(dir: &Path, record: &BTreeSet<String>, outputs: &Outputs) -> Vec<Str
     record
         .iter()
         .filter(|e| !e.ends_with('/'))
-        .filter(|e| (outputs.replaces)(e.rsplit('/').next().unwrap_or(e)) || outputs.fixed.contains(&e.as_str()))
+        .filter(|e| {
+            (outputs.replaces)(e.rsplit('/').next().unwrap_or(e))
+                || outputs.fixed.contains(&e.as_str())
+        })
         .filter(|e| std::fs::symlink_metadata(dir.join(e)).is_ok_and(|m| !m.is_dir()))
         .cloned()
         .collect()

@@ -39,7 +39,9 @@ fn writing_over_a_run_folder_manifest_is_refused() {
         manifest
     );
     assert_eq!(std::fs::read_dir(sb.join("run")).unwrap().count(), files);
-    let in_run = ["render", "run", "--image", "16x16", "--out", "run", "--quiet"];
+    let in_run = [
+        "render", "run", "--image", "16x16", "--out", "run", "--quiet",
+    ];
     assert_ok(&sb.run(&in_run), &in_run);
     assert_eq!(
         std::fs::read(sb.join("run/manifest.json")).unwrap(),
@@ -159,7 +161,11 @@ fn experiment_list_with_an_id_is_refused() {
         &["experiment", "03-2", "--list"],
         &["experiment", "--list", "--out", "o"],
     ] {
-        assert_refused(&sb, args, &["cannot be used with", "`smokelab experiment --help`"]);
+        assert_refused(
+            &sb,
+            args,
+            &["cannot be used with", "`smokelab experiment --help`"],
+        );
     }
     assert!(!sb.join("o").exists());
 }
@@ -173,12 +179,32 @@ fn experiment_list_with_an_id_is_refused() {
 fn clap_errors_are_one_line() {
     let sb = Sandbox::new();
     for (args, needles) in [
-        (&["run", "--fram", "5"][..], &["'--fram'", "'--frames'", "`smokelab run --help`"][..]),
-        (&["experiment", "06-1", "--smoke", "--full"], &["--full", "--smoke", "`smokelab experiment --help`"]),
+        (
+            &["run", "--fram", "5"][..],
+            &["'--fram'", "'--frames'", "`smokelab run --help`"][..],
+        ),
+        (
+            &["experiment", "06-1", "--smoke", "--full"],
+            &["--full", "--smoke", "`smokelab experiment --help`"],
+        ),
         (&["rnu"], &["'rnu'", "`smokelab --help`"]),
-        (&["render", "r"], &["not provided: --out <OUT>", "`smokelab render --help`"]),
-        (&["run", "--density", "grid"], &["'grid'", "possible values: gridded, gridless, selma", "similar value exists: 'gridded'", "`smokelab run --help`"]),
-        (&["sweep", "status"], &["not provided: <DIR>", "`smokelab sweep status --help`"]),
+        (
+            &["render", "r"],
+            &["not provided: --out <OUT>", "`smokelab render --help`"],
+        ),
+        (
+            &["run", "--density", "grid"],
+            &[
+                "'grid'",
+                "possible values: gridded, gridless, selma",
+                "similar value exists: 'gridded'",
+                "`smokelab run --help`",
+            ],
+        ),
+        (
+            &["sweep", "status"],
+            &["not provided: <DIR>", "`smokelab sweep status --help`"],
+        ),
     ] {
         assert_refused(&sb, args, needles);
     }
@@ -187,7 +213,10 @@ fn clap_errors_are_one_line() {
         assert!(!o.stdout.is_empty(), "{args:?}");
     }
     let help = String::from_utf8(sb.ok(&["--help"]).stdout).unwrap();
-    assert!(help.contains("Without a command, `smokelab` runs hot/cold"), "{help}");
+    assert!(
+        help.contains("Without a command, `smokelab` runs hot/cold"),
+        "{help}"
+    );
     assert_eq!(std::fs::read_dir(sb.path()).unwrap().count(), 0);
 }
 

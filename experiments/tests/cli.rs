@@ -115,6 +115,18 @@ fn print_config_round_trips() {
         let o = sb.ok(&args);
         let printed = String::from_utf8(o.stdout).unwrap();
         assert!(printed.contains("res = 24"), "{printed}");
+        // Every key shows, the unset ones (threads…) as comments.
+        let listed =
+            String::from_utf8(sb.run(&["run", scenario, "--set", "nokey=1"]).stderr).unwrap();
+        let keys = listed.split(" has the keys ").nth(1).unwrap().trim();
+        for key in keys.split(", ") {
+            assert!(
+                printed.contains(&format!("\n{key} = "))
+                    || printed.contains(&format!("\n# {key} =\n")),
+                "{scenario}: {key} missing from\n{printed}"
+            );
+        }
+        assert!(printed.contains("\n# threads =\n"), "{printed}");
         std::fs::write(sb.join("c.toml"), &printed).unwrap();
         let again = sb.run(&["run", scenario, "--config", "c.toml", "--print-config"]);
         assert_eq!(
@@ -336,7 +348,12 @@ fn experiment_all_smoke_runs_every_experiment_and_tabulates() {
         .map(|e| e.unwrap().path())
         .collect();
     assert!(
-        runs.len() == 1 && runs[0].file_name().unwrap().to_string_lossy().starts_with("all-smoke-"),
+        runs.len() == 1
+            && runs[0]
+                .file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with("all-smoke-"),
         "{runs:?}"
     );
     let table = std::fs::read_to_string(runs[0].join("experiments.csv")).unwrap();

@@ -257,15 +257,17 @@ fn link_checker_catches_a_broken_link() {
 }
 
 /// The relative `href="…"` and `src="…"` targets of an HTML page, without
-/// their `#anchor` or `?query`; links with a scheme and bare anchors left
-/// out.
+/// their `#anchor` or `?query`; links with a scheme, site-absolute ones
+/// (`/…`) and bare anchors left out.
 fn html_targets(page: &str) -> Vec<String> {
     let mut out = Vec::new();
     for attr in ["href=\"", "src=\""] {
         for part in page.split(attr).skip(1) {
             let Some(end) = part.find('"') else { continue };
             let target = part[..end].replace("&amp;", "&");
-            let is_external = target.starts_with("//")
+            // `/…` is relative to where the book is served (the 404 page's
+            // base), not a file of it.
+            let is_external = target.starts_with('/')
                 || target
                     .split_once(':')
                     .is_some_and(|(scheme, _)| scheme.chars().all(|c| c.is_ascii_alphabetic()));
@@ -285,7 +287,10 @@ fn html_targets(page: &str) -> Vec<String> {
 /// mdbook is not installed (`.ci/run` installs it first).
 #[test]
 fn built_book_has_no_dead_links() {
-    let Ok(version) = std::process::Command::new("mdbook").arg("--version").output() else {
+    let Ok(version) = std::process::Command::new("mdbook")
+        .arg("--version")
+        .output()
+    else {
         eprintln!("skipped: mdbook is not installed (cargo install mdbook --locked)");
         return;
     };
@@ -330,10 +335,16 @@ fn built_book_has_no_dead_links() {
             }
         }
     }
-    assert!(dead.is_empty(), "dead links in the built book:\n{}", dead.into_iter().collect::<Vec<_>>().join("\n"));
+    assert!(
+        dead.is_empty(),
+        "dead links in the built book:\n{}",
+        dead.into_iter().collect::<Vec<_>>().join("\n")
+    );
     // The checker itself: a link out of the book and a missing page are dead.
     assert_eq!(
-        html_targets(r#"<a href="../../paper/paper.html#x">p</a> <img src="a.png"> <a href="https://x.org/">x</a> <a href="#top">t</a>"#),
+        html_targets(
+            r##"<a href="../../paper/paper.html#x">p</a> <img src="a.png"> <a href="https://x.org/">x</a> <a href="#top">t</a>"##
+        ),
         ["../../paper/paper.html", "a.png"]
     );
 }

@@ -42,13 +42,18 @@ fn experiments_write_new_folders_and_results_only_when_published() {
     runs.sort();
     assert_eq!(runs.len(), 3, "{runs:?}");
     assert!(
-        runs[..2].iter().all(|r| r.starts_with("A-1-") && !r.contains("smoke"))
+        runs[..2]
+            .iter()
+            .all(|r| r.starts_with("A-1-") && !r.contains("smoke"))
             && runs[2].starts_with("A-1-smoke-"),
         "{runs:?}"
     );
     for r in &runs {
         assert!(d.join("runs").join(r).join("data.csv").is_file(), "{r}");
-        assert!(printed.contains(&format!("wrote runs/{r}\n")), "{r}: {printed}");
+        assert!(
+            printed.contains(&format!("wrote runs/{r}\n")),
+            "{r}: {printed}"
+        );
     }
     // --publish writes into results/: its data.csv there is not one
     // smokelab recorded writing, so it is refused, not replaced.

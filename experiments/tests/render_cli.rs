@@ -259,7 +259,10 @@ fn render_names_its_files_by_frame_so_frames_share_a_folder() {
         String::from_utf8(sb.ok(&args).stdout).unwrap()
     };
     let printed = ok(render("2", &[]));
-    assert!(printed.contains("wrote render/render_0002.exr and render/render_0002.png"), "{printed}");
+    assert!(
+        printed.contains("wrote render/render_0002.exr and render/render_0002.png"),
+        "{printed}"
+    );
     ok(render("4", &[]));
     let mut names: Vec<String> = std::fs::read_dir(sb.join("render"))
         .unwrap()
@@ -283,6 +286,9 @@ fn render_names_its_files_by_frame_so_frames_share_a_folder() {
     sb.refused(&again, &["render_0004", "--overwrite"]);
     let frame2 = std::fs::read(sb.join("render/render_0002.exr")).unwrap();
     ok(render("4", &["--overwrite"]));
-    assert_eq!(std::fs::read(sb.join("render/render_0002.exr")).unwrap(), frame2);
+    assert_eq!(
+        std::fs::read(sb.join("render/render_0002.exr")).unwrap(),
+        frame2
+    );
     assert!(sb.join("render/render_0004.exr").is_file());
 }
