@@ -28,14 +28,26 @@ fn main() -> ExitCode {
     .expect("no other interrupt handler is installed");
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
-        // A bad value: one line, naming the flag, the value and what is valid.
-        Err(e) => match process::bad_value_message(&e, &Cli::command()) {
-            Some(message) => {
-                eprintln!("error: {message}");
-                return ExitCode::from(2);
-            }
-            None => e.exit(),
-        },
+        // Help and version print as clap lays them out.
+        Err(e)
+            if !e.use_stderr()
+                || e.kind() == clap::error::ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
+            e.exit()
+        }
+        // A bad value: one line, naming the flag, the value and what is
+        // valid; any other parse error in one line too.
+        Err(e) => {
+            let message = match process::bad_value_message(&e, &Cli::command()) {
+                Some(message) => format!("error: {message}"),
+                None => {
+                    let args: Vec<String> = std::env::args().collect();
+                    smokelab_app::cli::one_line_error(&e, &args)
+                }
+            };
+            eprintln!("{message}");
+            return ExitCode::from(2);
+        }
     };
     // An unknown or unavailable `SMOKELAB_SIMD` stops before any work.
     if let Err(e) = smokelab::simd::Isa::from_env() {

@@ -1,6 +1,8 @@
 //! `smokelab experiment ID|all|--list`: one numbered experiment, or every
-//! one in turn ([`crate::cli::experiment_all`]), at the size asked, into
-//! `results/<id>/` (default size) or a new folder under `runs/`.
+//! one in turn ([`crate::cli::experiment_all`]), at the size asked, into a
+//! new folder of its own under `runs/` (as `smokelab run`), into `--out DIR`,
+//! or with `--publish` into the committed `results/<id>/` the paper and
+//! the gallery are made from.
 
 use std::path::PathBuf;
 
@@ -19,26 +21,28 @@ pub struct ExperimentArgs {
     /// Experiment id, e.g. `06-1` (see `--list`), or `all` to run every one in turn.
     pub id: Option<String>,
     /// List the experiments and what they reproduce.
-    #[arg(long, conflicts_with_all = ["id", "out", "full", "smoke", "overwrite"])]
+    #[arg(long, conflicts_with_all = ["id", "out", "full", "smoke", "overwrite", "publish"])]
     pub list: bool,
-    /// Output folder (default: `results/<id>/` at the default size, a new
-    /// `runs/<id>-smoke-<time>/` or `runs/<id>-full-<time>/` otherwise; with
-    /// `all`, the parent of one folder per experiment, default `results/`
-    /// or `runs/all-smoke-<time>/`).
+    /// Output folder (default: a new `runs/<id>-<time>/`, or
+    /// `runs/<id>-smoke-<time>/`, `runs/<id>-full-<time>/`; with `all`, the
+    /// parent of one folder per experiment, default a new `runs/all-<time>/`).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Write into the committed `results/<id>/` (with `all`, `results/`),
+    /// which the paper and the gallery are made from: default size only,
+    /// from a build of a clean commit. `experiment all --publish
+    /// --overwrite` regenerates `results/`.
+    #[arg(long, conflicts_with_all = ["out", "full", "smoke"])]
+    pub publish: bool,
     /// Replace the outputs of an earlier run of the experiment in its folder
     /// (figures, tables, arrays, manifests, and its run folders; other files
-    /// stay); without it such a folder is refused. `experiment all
-    /// --overwrite` regenerates `results/`.
+    /// stay); without it such a folder is refused.
     #[arg(long)]
     pub overwrite: bool,
-    /// Run at the notes' full sizes instead of the cheap default (into
-    /// `runs/`, not `results/`, unless --out says so).
+    /// Run at the notes' full sizes instead of the cheap default.
     #[arg(long)]
     pub full: bool,
-    /// Tiny sizes that finish in seconds (used by the test suite; into
-    /// `runs/`, not `results/`, unless --out says so).
+    /// Tiny sizes that finish in seconds (used by the test suite).
     #[arg(long, conflicts_with = "full")]
     pub smoke: bool,
     /// Worker threads (default: all cores).
@@ -50,8 +54,9 @@ pub struct ExperimentArgs {
     /// Experiment P-1, alone or in `all`: also run the peer scripts (Taichi, pyFFTW) with this Python.
     #[arg(long, value_name = "PYTHON")]
     pub peers: Option<PathBuf>,
-    /// Write into `results/` even from a build of a dirty tree (committed
-    /// results must come from a clean commit, recorded in their manifests).
+    /// With --publish (or an --out under `results/`): write even from a
+    /// build of a dirty tree (committed results must come from a clean
+    /// commit, recorded in their manifests).
     #[arg(long)]
     pub allow_dirty: bool,
 }
@@ -64,7 +69,7 @@ fn check_clean_build(out: &std::path::Path, allow_dirty: bool) -> Result<(), Inp
         out.components().next() == Some(std::path::Component::Normal("results".as_ref()));
     if into_results && !allow_dirty && io::manifest::BUILD_COMMIT.ends_with("-dirty") {
         return Err(InputError::new(format!(
-            "this smokelab was built from a dirty tree ({}); commit first, write elsewhere with --out, or pass --allow-dirty",
+            "this smokelab was built from a dirty tree ({}); commit first, leave out --publish to write a new folder under runs/, or pass --allow-dirty",
             io::manifest::BUILD_COMMIT
         )));
     }
@@ -99,19 +104,20 @@ pub(super) fn run(args: &ExperimentArgs) -> Result<()> {
         ))
         .into());
     }
-    // Only the default size writes into `results/` unless asked: the
-    // committed results are the default-size ones, and a smoke run there
-    // would mix sizes (and replace them).
-    let default_out = |folder: &str| match size {
-        kit::Size::Default => PathBuf::from("results").join(folder),
+    // Only `--publish` (or an `--out` there) writes into the committed
+    // `results/`, at the default size (clap refuses `--publish` with
+    // another): a rerun on a fresh clone goes into a new folder of its own.
+    let fresh = |folder: &str| match size {
+        kit::Size::Default => default_run_dir(folder),
         kit::Size::Smoke => default_run_dir(&format!("{folder}-smoke")),
         kit::Size::Full => default_run_dir(&format!("{folder}-full")),
     };
+    let published = args.publish.then(|| PathBuf::from("results"));
     if id == "all" {
-        let parent = args.out.clone().unwrap_or_else(|| match size {
-            kit::Size::Default => PathBuf::from("results"),
-            _ => default_out("all"),
-        });
+        let parent = match args.out.clone().or(published) {
+            Some(parent) => parent,
+            None => output_dir::create_fresh(&fresh("all"))?,
+        };
         check_clean_build(&parent, args.allow_dirty)?;
         let options = crate::cli::experiment_all::AllOptions {
             size,
@@ -122,14 +128,16 @@ pub(super) fn run(args: &ExperimentArgs) -> Result<()> {
         return crate::cli::experiment_all::run(&parent, &options);
     }
     let exp = registry::find(id)?;
-    let out = args.out.clone().unwrap_or_else(|| default_out(exp.folder));
-    output_dir::check(&out, &output_dir::EXPERIMENT, args.overwrite)?;
-    check_clean_build(&out, args.allow_dirty)?;
-    let out = match (&args.out, size) {
-        (None, kit::Size::Smoke | kit::Size::Full) => output_dir::create_fresh(&out)?,
-        _ => out,
+    let given = args.out.clone().or(published.map(|r| r.join(exp.folder)));
+    let (out, existed) = match given {
+        Some(out) => {
+            output_dir::check(&out, &output_dir::EXPERIMENT, args.overwrite)?;
+            check_clean_build(&out, args.allow_dirty)?;
+            let existed = out.exists();
+            (out, existed)
+        }
+        None => (output_dir::create_fresh(&fresh(exp.folder))?, false),
     };
-    let existed = out.exists();
     let folder = output_dir::open(&out, &output_dir::EXPERIMENT, args.overwrite)?;
     let ctx = kit::Context {
         out: out.clone(),

@@ -1,7 +1,8 @@
 //! `smokelab experiment all`: every registered experiment in the notes'
 //! order into one parent folder, going on past failures, with an estimate
-//! of the time left from the last run's `experiments.csv` and that table
-//! written anew.
+//! of the time left from the last run's `experiments.csv` (the committed
+//! `results/experiments.csv` for a new folder at the default size) and that
+//! table written anew.
 
 use anyhow::Result;
 use serde::Serialize;
@@ -99,7 +100,13 @@ pub(crate) fn run(parent: &std::path::Path, options: &AllOptions) -> Result<()> 
     } = options;
     io::check_output_dir(parent)?;
     let table = parent.join("experiments.csv");
-    let mut estimate = AllEstimate::read(&table);
+    // A new folder has no record of its own: at the default size, the
+    // committed results' times stand in.
+    let committed = std::path::Path::new("results/experiments.csv");
+    let mut estimate = AllEstimate::read(match size {
+        kit::Size::Default if !table.is_file() => committed,
+        _ => &table,
+    });
     for exp in registry::ALL {
         output_dir::check(&parent.join(exp.folder), &output_dir::EXPERIMENT, overwrite)?;
     }

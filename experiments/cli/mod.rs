@@ -18,7 +18,7 @@ pub mod run;
 pub mod sweep;
 
 use anyhow::Result;
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 
 use crate::cli::experiment::ExperimentArgs;
 use crate::cli::process::init_threads;
@@ -39,7 +39,13 @@ fn version() -> &'static str {
 
 /// Navier–Stokes smoke with gridded, gridless and SELMA density.
 #[derive(Debug, Parser)]
-#[command(name = "smokelab", version = version(), about)]
+#[command(
+    name = "smokelab",
+    version = version(),
+    about,
+    after_help = "Without a command, `smokelab` runs hot/cold smoke at 50³ into a new folder \
+                  runs/hot-cold-<time>/, as `smokelab run` does, and prints where it wrote."
+)]
 pub struct Cli {
     /// What to do (default: `run hot-cold`).
     #[command(subcommand)]
@@ -67,6 +73,47 @@ pub enum Command {
     Gallery(crate::publish::gallery::GalleryArgs),
     /// Run a parameter sweep (a scenario over axes of keys, or experiments) locally or as a Slurm job array; track, resubmit and gather it.
     Sweep(crate::cli::sweep::SweepArgs),
+}
+
+/// A command-line error clap reports (unknown or misspelt option, missing
+/// or conflicting argument, a value clap itself refuses) as one line: the
+/// error with what clap lists under it (the missing arguments, the possible
+/// values), its tips, and which command's `--help` lists the options — not
+/// clap's block of error, tips, usage and a pointer to `--help`. `args` is
+/// the command line, for the subcommand.
+pub fn one_line_error(e: &clap::Error, args: &[String]) -> String {
+    let text = e.render().to_string();
+    let mut error = String::new();
+    let mut tips = Vec::new();
+    for line in text.lines().map(str::trim).filter(|l| !l.is_empty()) {
+        if line.starts_with("Usage:") || line.starts_with("For more information") {
+            continue;
+        }
+        match line.strip_prefix("tip:") {
+            Some(tip) => tips.push(tip.trim().trim_end_matches('.').to_owned()),
+            None if error.is_empty() => error = line.to_owned(),
+            None => {
+                error.push(' ');
+                error.push_str(line);
+            }
+        }
+    }
+    let mut command = Cli::command();
+    let mut words = vec!["smokelab".to_owned()];
+    for arg in args.iter().skip(1) {
+        if let Some(sub) = command.find_subcommand(arg) {
+            let sub = sub.clone();
+            words.push(arg.clone());
+            command = sub;
+        }
+    }
+    let mut parts = vec![error.trim_end_matches('.').to_owned()];
+    parts.extend(tips);
+    format!(
+        "{} (`{} --help` lists the options)",
+        parts.join("; "),
+        words.join(" ")
+    )
 }
 
 /// Run the parsed command line.

@@ -16,10 +16,12 @@
 //! the run's (origin and extent from its `manifest.json`) and, without
 //! `--density`, the volumes are the run's gases at `--frame` (default: the
 //! last saved frame), in the run's order; `--size` and `--density` still
-//! override. Writes
-//! `render.exr` (linear, premultiplied RGBA), `render.png` (sRGB preview) and
-//! `manifest.json` (parameters and render statistics). Every input is checked
-//! before anything is written.
+//! override. Writes `render_NNNN.exr` (linear, premultiplied RGBA),
+//! `render_NNNN.png` (sRGB preview) and `render_NNNN.json` (the manifest:
+//! parameters and render statistics), NNNN the run's frame (or the frame
+//! number all `--density` files end in, `hot_0100.npy`; `render.exr`… when
+//! there is none), so the frames of a run go into one folder. Every input
+//! is checked before anything is written.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -111,11 +113,12 @@ pub struct RenderArgs {
     /// Jitter seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Output folder.
+    /// Output folder; several frames may share one (`render_NNNN.exr`,
+    /// `.png`, `.json` for frame NNNN).
     #[arg(long)]
     pub out: PathBuf,
-    /// Replace an earlier render in --out (`render.exr`, `render.png`,
-    /// `manifest.json`); without it such a folder is refused.
+    /// Replace an earlier render of the same frame in --out; without it
+    /// that is refused (other frames' files stay either way).
     #[arg(long)]
     pub overwrite: bool,
     /// Worker threads (default: all cores).
@@ -130,6 +133,9 @@ pub struct RenderArgs {
 #[derive(Serialize)]
 struct RenderJob {
     densities: Vec<PathBuf>,
+    /// The run's frame rendered (or the one the density files are named
+    /// after), which names the files written.
+    frame: Option<usize>,
     scene: Scene,
     settings: RenderSettings,
     display: Display,
@@ -140,7 +146,14 @@ struct RenderJob {
 pub fn run(args: &RenderArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let job = resolve(args)?;
-    crate::run::output_dir::check(&args.out, &crate::run::output_dir::RENDER, args.overwrite)?;
+    let stem = match job.frame {
+        Some(frame) => format!("render_{frame:04}"),
+        None => "render".to_owned(),
+    };
+    let files = ["exr", "png", "json"].map(|ext| format!("{stem}.{ext}"));
+    let names = files.each_ref().map(String::as_str);
+    let outputs = crate::run::output_dir::render(&names);
+    crate::run::output_dir::check(&args.out, &outputs, args.overwrite)?;
     let bar = progress::bar(
         expected_queries(&job.scene, &job.settings),
         "density samples",
@@ -152,27 +165,25 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let rendered = render(&counted, &job.settings)?;
     bar.finish_and_clear();
-    let _folder =
-        crate::run::output_dir::open(&args.out, &crate::run::output_dir::RENDER, args.overwrite)?;
-    output::write_exr(&args.out.join("render.exr"), &rendered.image, job.precision)?;
-    io::write_png(
-        &args.out.join("render.png"),
-        &output::preview(&rendered.image, &job.display),
-    )?;
+    let _folder = crate::run::output_dir::open(&args.out, &outputs, args.overwrite)?;
+    let [exr, png, json] = files.map(|f| args.out.join(f));
+    output::write_exr(&exr, &rendered.image, job.precision)?;
+    io::write_png(&png, &output::preview(&rendered.image, &job.display))?;
     let wall = start.elapsed().as_secs_f64();
     let stats = rendered.stats;
     io::write_json(
-        &args.out.join("manifest.json"),
+        &json,
         &Manifest::new(&job, args.seed, wall, serde_json::to_value(stats)?),
     )?;
     println!(
-        "rendered {}x{} ({} samples, {:.2e} samples/s) in {:.1} s; wrote {}",
+        "rendered {}x{} ({} samples, {:.2e} samples/s) in {:.1} s; wrote {} and {}",
         stats.width,
         stats.height,
         stats.samples,
         stats.samples_per_second,
         wall,
-        args.out.display()
+        exr.display(),
+        png.display()
     );
     Ok(())
 }
@@ -240,7 +251,7 @@ fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
         (Some(dir), None) | (None, Some(dir)) => Some(RunFolder::open(dir, args.partial)?),
         (None, None) => None,
     };
-    let densities = volume_paths(args, run.as_ref())?;
+    let (densities, frame) = volume_paths(args, run.as_ref())?;
     if args.colors.len() > densities.len() {
         return Err(InputError::new(format!(
             "{} --color values for {} volumes; give at most one colour per volume",
@@ -314,6 +325,7 @@ fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
     smokelab::render::validate(&scene, &settings)?;
     Ok(RenderJob {
         densities,
+        frame,
         scene,
         settings,
         display: Display {
@@ -324,9 +336,14 @@ fn resolve(args: &RenderArgs) -> Result<RenderJob, InputError> {
     })
 }
 
-/// The volumes to render: the `--density` files, or else the run's gases at
+/// The volumes to render and their frame: the `--density` files (and the
+/// frame number they all end in, if any), or else the run's gases at
 /// `--frame` (default: its last saved frame).
-fn volume_paths(args: &RenderArgs, run: Option<&RunFolder>) -> Result<Vec<PathBuf>, InputError> {
+fn volume_paths(
+    args: &RenderArgs,
+    run: Option<&RunFolder>,
+) -> Result<(Vec<PathBuf>, Option<usize>), InputError> {
+    let given = || (args.densities.clone(), common_frame(&args.densities));
     let Some(run) = run else {
         if let Some(frame) = args.frame {
             return Err(InputError::new(format!(
@@ -338,7 +355,7 @@ fn volume_paths(args: &RenderArgs, run: Option<&RunFolder>) -> Result<Vec<PathBu
                 "nothing to render: give --density FILE.npy (repeatable) or a run folder, render RUN_DIR",
             ));
         }
-        return Ok(args.densities.clone());
+        return Ok(given());
     };
     if !args.densities.is_empty() {
         if let Some(frame) = args.frame {
@@ -346,7 +363,7 @@ fn volume_paths(args: &RenderArgs, run: Option<&RunFolder>) -> Result<Vec<PathBu
                 "--frame {frame} picks the run's gases, but --density names the volumes; give one of them"
             )));
         }
-        return Ok(args.densities.clone());
+        return Ok(given());
     }
     let last = *run.frames.last().expect("a run folder has saved frames");
     let frame = args.frame.unwrap_or(last);
@@ -358,7 +375,25 @@ fn volume_paths(args: &RenderArgs, run: Option<&RunFolder>) -> Result<Vec<PathBu
             saved.join(", ")
         )));
     }
-    Ok(run.gases.iter().map(|g| run.gas_path(g, frame)).collect())
+    let paths = run.gases.iter().map(|g| run.gas_path(g, frame)).collect();
+    Ok((paths, Some(frame)))
+}
+
+/// The frame number every one of `paths` is named after (`hot_0100.npy`,
+/// `cold_0100.npy`: 100), if they share one.
+fn common_frame(paths: &[PathBuf]) -> Option<usize> {
+    let frame = |p: &PathBuf| -> Option<usize> {
+        let stem = p.file_stem()?.to_str()?;
+        let (_, n) = stem.rsplit_once('_')?;
+        (n.len() >= 4 && n.bytes().all(|b| b.is_ascii_digit()))
+            .then(|| n.parse().ok())
+            .flatten()
+    };
+    let first = frame(paths.first()?)?;
+    paths
+        .iter()
+        .all(|p| frame(p) == Some(first))
+        .then_some(first)
 }
 
 /// The box of volumes of `shape` `(nz, ny, nx)`: with a run, its origin and

@@ -309,13 +309,34 @@ pub(super) fn run_scenario(args: &RunArgs) -> Result<()> {
     }
 }
 
+/// `--print-config`: every key with its value as TOML, then the keys that
+/// are unset (TOML has no empty value: `threads`, `map_res`…, whose
+/// default follows from the others) as comments, so that every key shows.
+fn printed_config<C: Scenario>(config: &C) -> String {
+    let mut text = toml::to_string(config).expect("a configuration serializes to TOML");
+    if let Ok(serde_json::Value::Object(keys)) = serde_json::to_value(config) {
+        let unset: Vec<&String> = keys
+            .iter()
+            .filter(|(_, v)| v.is_null())
+            .map(|(k, _)| k)
+            .collect();
+        if !unset.is_empty() {
+            text.push_str(
+                "\n# Unset: each follows from the keys above unless given \
+                 (`smokelab run --help` says how).\n",
+            );
+            for key in unset {
+                text.push_str(&format!("# {key} =\n"));
+            }
+        }
+    }
+    text
+}
+
 /// Run the resolved configuration of any scenario (or print it).
 fn run_config<C: Scenario>(args: &RunArgs, config: &C) -> Result<()> {
     if args.print_config {
-        print!(
-            "{}",
-            toml::to_string(config).expect("a configuration serializes to TOML")
-        );
+        print!("{}", printed_config(config));
         return Ok(());
     }
     let s = config.solver();

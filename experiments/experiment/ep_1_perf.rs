@@ -105,7 +105,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "perf",
     reproduces: "performance",
     title: "hot/cold step time 32³…256³: cells/s, fitted exponent, 1 vs 2 threads, stages, FFT floor (--peers PYTHON: Taichi + pyFFTW)",
-    cost: "~1 min",
+    cost: "~2 min",
     run,
 };
 

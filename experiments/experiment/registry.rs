@@ -3,8 +3,9 @@
 //! reproduces, how to run it, what it costs and what it writes.
 //!
 //! Run one with `smokelab experiment <id>`; list them with
-//! `smokelab experiment --list`. Every experiment writes into `results/<id>/`
-//! by default: images, `data.csv` or `metrics.csv`, and `manifest.json`.
+//! `smokelab experiment --list`. Every experiment writes its images,
+//! `data.csv` or `metrics.csv`, and `manifest.json` into a new folder under
+//! `runs/`, or with `--publish` into the committed `results/<id>/`.
 
 use anyhow::Result;
 

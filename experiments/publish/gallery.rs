@@ -84,7 +84,7 @@ impl Provenance {
         let field = |k: &str| json.get(k).and_then(Value::as_str).unwrap_or("").to_owned();
         Some(Self {
             source,
-            command: field("command"),
+            command: shown_command(&field("command")),
             commit: field("commit"),
             captions: generated_captions(&results.join(dir))
                 .into_iter()
@@ -92,6 +92,27 @@ impl Provenance {
                 .collect(),
         })
     }
+}
+
+/// A manifest's command line as a reader would type it: the program as
+/// `smokelab` (not the path it ran from, `./target/release/smokelab`) and
+/// the peers' Python as `PYTHON` (not the path it has on the machine that
+/// made the results).
+fn shown_command(command: &str) -> String {
+    let mut words: Vec<String> = Vec::new();
+    for word in command.split_whitespace() {
+        let shown = if words.is_empty() && word.rsplit('/').next() == Some("smokelab") {
+            "smokelab".to_owned()
+        } else if words.last().is_some_and(|w| w == "--peers") {
+            "PYTHON".to_owned()
+        } else if word.starts_with("--peers=") {
+            "--peers=PYTHON".to_owned()
+        } else {
+            word.to_owned()
+        };
+        words.push(shown);
+    }
+    words.join(" ")
 }
 
 /// The captions an experiment generated for the figures of `dir`
@@ -556,6 +577,24 @@ fn href(path: &Path) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn commands_show_the_program_and_the_peers_python_by_name() {
+        assert_eq!(
+            shown_command(
+                "./target/release/smokelab experiment all --publish --quiet --peers /work/.venv/bin/python"
+            ),
+            "smokelab experiment all --publish --quiet --peers PYTHON"
+        );
+        assert_eq!(
+            shown_command("/usr/bin/smokelab experiment P-1 --peers=/x/python"),
+            "smokelab experiment P-1 --peers=PYTHON"
+        );
+        assert_eq!(
+            shown_command("smokelab run --out smokelab"),
+            "smokelab run --out smokelab"
+        );
+    }
 
     #[test]
     fn links_are_relative_and_encoded() {

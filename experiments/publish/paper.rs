@@ -7,7 +7,8 @@
 //! claims table measured from the results by [`crate::publish::claims`]), and the
 //! numbers of the prose are read from the results files they name
 //! ([`crate::publish::paper_values`]), so
-//! re-running an experiment and then `smokelab paper` updates the paper.
+//! re-running an experiment with `--publish` and then `smokelab paper`
+//! updates the paper.
 //! If `pandoc` is on the PATH the paper is also written to
 //! `paper/paper.html`; without it the command says so and succeeds. An
 //! earlier `paper.html` is replaced only with `--overwrite` (the output
@@ -217,7 +218,7 @@ fn validation(results: &Path) -> Result<String> {
     let table = results.join("validation/table.md");
     if !table.exists() {
         return Ok(
-            "*Not run yet: `smokelab experiment V-1`, then `smokelab paper --overwrite`.*".into(),
+            "*Not run yet: `smokelab experiment V-1 --publish`, then `smokelab paper --overwrite`.*".into(),
         );
     }
     std::fs::read_to_string(&table).with_context(|| format!("cannot read {}", table.display()))

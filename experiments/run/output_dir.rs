@@ -24,9 +24,10 @@
 //! `gallery` and `paper` write one file each into a folder that is not
 //! theirs (`index.html`, `paper/paper.html`): an existing one is replaced
 //! only with `--overwrite` ([`check_file`]). Two more parts of the rule live
-//! with the commands that need them: an experiment at a size other than the
-//! default writes into `runs/`, never into `results/`, unless `--out` asks
-//! for it (`cli/experiment.rs`); and `gallery`, `paper` and the experiments'
+//! with the commands that need them: an experiment writes into a new folder
+//! under `runs/`, and into the committed `results/` only when asked
+//! (`--publish`, at the default size and from a clean build, or an `--out`
+//! there; `cli/experiment.rs`); and `gallery`, `paper` and the experiments'
 //! peer scripts look for the repository from the working folder only, never
 //! falling back to the checkout the binary was built from
 //! ([`repository_root`]).
@@ -40,14 +41,15 @@ use smokelab::io::{self, folder};
 
 /// What one command writes into its output folder.
 #[derive(Clone, Copy, Debug)]
-pub struct Outputs {
+pub struct Outputs<'a> {
     /// The command, for messages (`run`, `render`…).
     pub command: &'static str,
     /// Whether a recorded file of this name is of a kind the command
-    /// writes, and so replaced by `--overwrite`.
+    /// writes, and so replaced by `--overwrite` (besides the `fixed` ones).
     pub replaces: fn(&str) -> bool,
-    /// Names the command always writes at the top of the folder.
-    pub fixed: &'static [&'static str],
+    /// Names the command always writes at the top of the folder; recorded,
+    /// they are earlier outputs that `--overwrite` replaces.
+    pub fixed: &'a [&'a str],
     /// Whether the command writes the folder's `manifest.json` (a folder
     /// holding one without a record is then refused).
     pub writes_manifest: bool,
@@ -68,7 +70,7 @@ pub fn is_frame_file(name: &str, exts: &[&str]) -> bool {
 }
 
 /// `smokelab run` (and `run --resume`): everything it recorded.
-pub const RUN: Outputs = Outputs {
+pub const RUN: Outputs<'static> = Outputs {
     command: "run",
     replaces: |_| true,
     fixed: &[
@@ -85,7 +87,7 @@ pub const RUN: Outputs = Outputs {
 };
 
 /// `smokelab script`: everything it recorded.
-pub const SCRIPT: Outputs = Outputs {
+pub const SCRIPT: Outputs<'static> = Outputs {
     command: "script",
     replaces: |_| true,
     fixed: &["manifest.json"],
@@ -95,7 +97,7 @@ pub const SCRIPT: Outputs = Outputs {
 
 /// `smokelab experiment`: everything it recorded, in its folder and the
 /// run folders inside it.
-pub const EXPERIMENT: Outputs = Outputs {
+pub const EXPERIMENT: Outputs<'static> = Outputs {
     command: "experiment",
     replaces: |_| true,
     fixed: &[],
@@ -103,17 +105,22 @@ pub const EXPERIMENT: Outputs = Outputs {
     manifest_key: None,
 };
 
-/// `smokelab render`: the image and its manifest.
-pub const RENDER: Outputs = Outputs {
-    command: "render",
-    replaces: |_| true,
-    fixed: &["render.exr", "render.png", "manifest.json"],
-    writes_manifest: true,
-    manifest_key: Some("densities"),
-};
+/// `smokelab render`: one frame's image, its preview and its manifest
+/// (`render_NNNN.exr`, `.png`, `.json`, named by `cli::render`), so several
+/// frames share a folder and `--overwrite` replaces only the frame rendered
+/// again.
+pub fn render<'a>(files: &'a [&'a str]) -> Outputs<'a> {
+    Outputs {
+        command: "render",
+        replaces: |_| false,
+        fixed: files,
+        writes_manifest: false,
+        manifest_key: None,
+    }
+}
 
 /// `smokelab noise`: the sampled field, its slice and manifest.
-pub const NOISE: Outputs = Outputs {
+pub const NOISE: Outputs<'static> = Outputs {
     command: "noise",
     replaces: |_| true,
     fixed: &["noise.npy", "slice.png", "manifest.json"],
@@ -123,7 +130,7 @@ pub const NOISE: Outputs = Outputs {
 
 /// `smokelab export vdb`: the OpenVDB frames (a run's own `--vdb` frames
 /// among them).
-pub const EXPORT_VDB: Outputs = Outputs {
+pub const EXPORT_VDB: Outputs<'static> = Outputs {
     command: "export vdb",
     replaces: |name| name.starts_with("frame_") && is_frame_file(name, &["vdb"]),
     fixed: &[],
@@ -132,7 +139,7 @@ pub const EXPORT_VDB: Outputs = Outputs {
 };
 
 /// `smokelab export paraview`: the VTK frames and their time series.
-pub const EXPORT_PARAVIEW: Outputs = Outputs {
+pub const EXPORT_PARAVIEW: Outputs<'static> = Outputs {
     command: "export paraview",
     replaces: |name| {
         (name.starts_with("frame_") && is_frame_file(name, &["vti"])) || name == "run.pvd"
@@ -148,7 +155,10 @@ fn replaced(dir: &Path, record: &BTreeSet<String>, outputs: &Outputs) -> Vec<Str
     record
         .iter()
         .filter(|e| !e.ends_with('/'))
-        .filter(|e| (outputs.replaces)(e.rsplit('/').next().unwrap_or(e)))
+        .filter(|e| {
+            (outputs.replaces)(e.rsplit('/').next().unwrap_or(e))
+                || outputs.fixed.contains(&e.as_str())
+        })
         .filter(|e| std::fs::symlink_metadata(dir.join(e)).is_ok_and(|m| !m.is_dir()))
         .cloned()
         .collect()
@@ -469,7 +479,7 @@ mod tests {
             r#"{"config": {"res": 10}}"#,
         )
         .unwrap();
-        let e = check(dir.path(), &RENDER, true).unwrap_err().to_string();
+        let e = check(dir.path(), &NOISE, true).unwrap_err().to_string();
         assert!(e.contains("did not write"), "{e}");
     }
 }

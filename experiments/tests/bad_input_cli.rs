@@ -20,18 +20,15 @@ fn assert_refused(sb: &Sandbox, args: &[&str], needles: &[&str]) {
 
 /// `render RUN_DIR --out RUN_DIR` replaced the run's manifest with the
 /// render's (exit 0), after which `render` and `export` refused the folder
-/// as not a run's. Likewise `noise --out RUN_DIR`.
+/// as not a run's; a render now names its manifest by frame
+/// (`render_0004.json`) and leaves the run's alone. `noise --out RUN_DIR`,
+/// which writes a `manifest.json`, is refused.
 #[test]
 fn writing_over_a_run_folder_manifest_is_refused() {
     let sb = Sandbox::new();
     sb.small_hot_cold_run("run", &["--save-every", "2"]);
     let manifest = std::fs::read(sb.join("run/manifest.json")).unwrap();
     let files = std::fs::read_dir(sb.join("run")).unwrap().count();
-    assert_refused(
-        &sb,
-        &["render", "run", "--out", "run", "--quiet"],
-        &["output folder run holds a manifest.json", "another --out"],
-    );
     assert_refused(
         &sb,
         &["noise", "value", "--res", "8", "--out", "run", "--quiet"],
@@ -42,6 +39,17 @@ fn writing_over_a_run_folder_manifest_is_refused() {
         manifest
     );
     assert_eq!(std::fs::read_dir(sb.join("run")).unwrap().count(), files);
+    let in_run = [
+        "render", "run", "--image", "16x16", "--out", "run", "--quiet",
+    ];
+    assert_ok(&sb.run(&in_run), &in_run);
+    assert_eq!(
+        std::fs::read(sb.join("run/manifest.json")).unwrap(),
+        manifest
+    );
+    assert!(sb.join("run/render_0004.json").is_file());
+    let export = ["export", "vdb", "run", "--out", "vdb"];
+    assert_ok(&sb.run(&export), &export);
     // A render's own folder may be rendered into again, with --overwrite.
     let render = |extra: &[&str]| {
         let mut args = vec!["render", "run", "--image", "16x16", "--out", "r", "--quiet"];
@@ -153,9 +161,63 @@ fn experiment_list_with_an_id_is_refused() {
         &["experiment", "03-2", "--list"],
         &["experiment", "--list", "--out", "o"],
     ] {
-        sb.refused(args, &["cannot be used with"]);
+        assert_refused(
+            &sb,
+            args,
+            &["cannot be used with", "`smokelab experiment --help`"],
+        );
     }
     assert!(!sb.join("o").exists());
+}
+
+/// clap's own errors (an unknown or misspelt option, a missing or
+/// conflicting argument, an unknown subcommand) used to be 3–6 lines of
+/// error, tips, usage and a pointer to `--help`; now one line with clap's
+/// tip and the command whose `--help` lists the options. Help and the
+/// version still print in full, with exit 0.
+#[test]
+fn clap_errors_are_one_line() {
+    let sb = Sandbox::new();
+    for (args, needles) in [
+        (
+            &["run", "--fram", "5"][..],
+            &["'--fram'", "'--frames'", "`smokelab run --help`"][..],
+        ),
+        (
+            &["experiment", "06-1", "--smoke", "--full"],
+            &["--full", "--smoke", "`smokelab experiment --help`"],
+        ),
+        (&["rnu"], &["'rnu'", "`smokelab --help`"]),
+        (
+            &["render", "r"],
+            &["not provided: --out <OUT>", "`smokelab render --help`"],
+        ),
+        (
+            &["run", "--density", "grid"],
+            &[
+                "'grid'",
+                "possible values: gridded, gridless, selma",
+                "similar value exists: 'gridded'",
+                "`smokelab run --help`",
+            ],
+        ),
+        (
+            &["sweep", "status"],
+            &["not provided: <DIR>", "`smokelab sweep status --help`"],
+        ),
+    ] {
+        assert_refused(&sb, args, needles);
+    }
+    for args in [&["--help"][..], &["run", "--help"], &["--version"]] {
+        let o = sb.ok(args);
+        assert!(!o.stdout.is_empty(), "{args:?}");
+    }
+    let help = String::from_utf8(sb.ok(&["--help"]).stdout).unwrap();
+    assert!(
+        help.contains("Without a command, `smokelab` runs hot/cold"),
+        "{help}"
+    );
+    assert_eq!(std::fs::read_dir(sb.path()).unwrap().count(), 0);
 }
 
 /// `--selma-remap` is SELMA's, as `--map-res` is: given to another density

@@ -17,9 +17,10 @@ fn assert_rejected(args: &[&str], needle: &str) {
         err.contains(needle),
         "{args:?}: stderr {err:?} does not mention {needle:?}"
     );
-    assert!(
-        err.lines().filter(|l| !l.trim().is_empty()).count() <= 4,
-        "{args:?}: message too long: {err}"
+    assert_eq!(
+        err.lines().filter(|l| !l.trim().is_empty()).count(),
+        1,
+        "{args:?}: not one line: {err}"
     );
     assert!(
         !sb.join("out").exists(),
@@ -114,6 +115,18 @@ fn print_config_round_trips() {
         let o = sb.ok(&args);
         let printed = String::from_utf8(o.stdout).unwrap();
         assert!(printed.contains("res = 24"), "{printed}");
+        // Every key shows, the unset ones (threads…) as comments.
+        let listed =
+            String::from_utf8(sb.run(&["run", scenario, "--set", "nokey=1"]).stderr).unwrap();
+        let keys = listed.split(" has the keys ").nth(1).unwrap().trim();
+        for key in keys.split(", ") {
+            assert!(
+                printed.contains(&format!("\n{key} = "))
+                    || printed.contains(&format!("\n# {key} =\n")),
+                "{scenario}: {key} missing from\n{printed}"
+            );
+        }
+        assert!(printed.contains("\n# threads =\n"), "{printed}");
         std::fs::write(sb.join("c.toml"), &printed).unwrap();
         let again = sb.run(&["run", scenario, "--config", "c.toml", "--print-config"]);
         assert_eq!(
@@ -328,8 +341,22 @@ fn experiment_06_1_smoke_gases_pass_each_other_unless_head_on() {
 #[test]
 fn experiment_all_smoke_runs_every_experiment_and_tabulates() {
     let sb = Sandbox::new();
-    sb.ok(&["experiment", "all", "--smoke", "--quiet", "--out", "all"]);
-    let table = std::fs::read_to_string(sb.join("all/experiments.csv")).unwrap();
+    // Without --out: a new folder of its own under runs/.
+    sb.ok(&["experiment", "all", "--smoke", "--quiet"]);
+    let runs: Vec<_> = std::fs::read_dir(sb.join("runs"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert!(
+        runs.len() == 1
+            && runs[0]
+                .file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with("all-smoke-"),
+        "{runs:?}"
+    );
+    let table = std::fs::read_to_string(runs[0].join("experiments.csv")).unwrap();
     let list = String::from_utf8(sb.run(&["experiment", "--list"]).stdout).unwrap();
     // One row per experiment of the listing (header excluded), each "ok",
     // each output folder written.

@@ -39,11 +39,11 @@ fn experiments_catalogue() -> String {
         "<!-- Generated from experiments/experiment/registry.rs by experiments/tests/docs.rs; do not edit. -->\n\n\
          # Experiments catalogue\n\n\
          Every numbered experiment, in the notes' order. Run one with \
-         `smokelab experiment <id>`; it writes `results/<id>/` at the default \
-         size (`--smoke`: seconds, `--full`: the notes' sizes, both into \
-         `runs/`). The time is the default run's on two cores; *seconds* or \
-         *minutes* is its class. The [gallery](../../../results/index.html) \
-         shows each one's figures under the same id.\n\n\
+         `smokelab experiment <id>`; it writes a new folder `runs/<id>-<time>/` \
+         at the default size (`--smoke`: seconds, `--full`: the notes' sizes; \
+         `--publish`: into the committed `results/<id>/`). The time is the default run's on two cores; *seconds* or \
+         *minutes* is its class. The gallery, `results/index.html` in the \
+         repository, shows each one's figures under the same id.\n\n\
          | id | reproduces | what it shows | default run | class |\n\
          |---|---|---|---|---|\n",
     );
@@ -254,4 +254,97 @@ fn link_checker_catches_a_broken_link() {
     assert_eq!(links(text), vec!["b.md#top", "c.md"]);
     assert!(anchors(text).contains("top"));
     assert!(!anchors(text).contains("not-a-heading"));
+}
+
+/// The relative `href="…"` and `src="…"` targets of an HTML page, without
+/// their `#anchor` or `?query`; links with a scheme, site-absolute ones
+/// (`/…`) and bare anchors left out.
+fn html_targets(page: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for attr in ["href=\"", "src=\""] {
+        for part in page.split(attr).skip(1) {
+            let Some(end) = part.find('"') else { continue };
+            let target = part[..end].replace("&amp;", "&");
+            // `/…` is relative to where the book is served (the 404 page's
+            // base), not a file of it.
+            let is_external = target.starts_with('/')
+                || target
+                    .split_once(':')
+                    .is_some_and(|(scheme, _)| scheme.chars().all(|c| c.is_ascii_alphabetic()));
+            let path = target.split(['#', '?']).next().unwrap_or("");
+            if !is_external && !path.is_empty() {
+                out.push(path.to_string());
+            }
+        }
+    }
+    out
+}
+
+/// The built book (mdBook's HTML, not the Markdown) links only to files in
+/// the book: a link out of it (to `paper/paper.html`, which exists only
+/// after `smokelab paper` with pandoc, or to `results/`) is dead where the
+/// book is served (`mdbook serve`) or published. Skipped, saying so, where
+/// mdbook is not installed (`.ci/run` installs it first).
+#[test]
+fn built_book_has_no_dead_links() {
+    let Ok(version) = std::process::Command::new("mdbook")
+        .arg("--version")
+        .output()
+    else {
+        eprintln!("skipped: mdbook is not installed (cargo install mdbook --locked)");
+        return;
+    };
+    assert!(version.status.success());
+    let out = tempfile::tempdir().unwrap();
+    let built = std::process::Command::new("mdbook")
+        .arg("build")
+        .arg(root().join("docs"))
+        .arg("--dest-dir")
+        .arg(out.path())
+        .output()
+        .unwrap();
+    assert!(
+        built.status.success(),
+        "mdbook build: {}",
+        String::from_utf8_lossy(&built.stderr)
+    );
+    fn pages(dir: &Path, out: &mut Vec<PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                pages(&path, out);
+            } else if path.extension().is_some_and(|e| e == "html") {
+                out.push(path);
+            }
+        }
+    }
+    let mut html = Vec::new();
+    pages(out.path(), &mut html);
+    assert!(html.len() > 10, "the built book has pages: {html:?}");
+    let mut dead = BTreeSet::new();
+    for page in &html {
+        let text = std::fs::read_to_string(page).unwrap();
+        for target in html_targets(&text) {
+            let path = page.parent().unwrap().join(&target);
+            let inside = path
+                .canonicalize()
+                .is_ok_and(|p| p.starts_with(out.path().canonicalize().unwrap()));
+            if !inside {
+                let shown = page.strip_prefix(out.path()).unwrap().display();
+                dead.insert(format!("{shown}: {target}"));
+            }
+        }
+    }
+    assert!(
+        dead.is_empty(),
+        "dead links in the built book:\n{}",
+        dead.into_iter().collect::<Vec<_>>().join("\n")
+    );
+    // The checker itself: a link out of the book and a missing page are dead.
+    assert_eq!(
+        html_targets(
+            r##"<a href="../../paper/paper.html#x">p</a> <img src="a.png"> <a href="https://x.org/">x</a> <a href="#top">t</a>"##
+        ),
+        ["../../paper/paper.html", "a.png"]
+    );
 }

@@ -10,37 +10,59 @@ mod common;
 
 use common::Sandbox;
 
-/// `experiment ID --smoke` without `--out` used to rewrite the committed
-/// `results/ID/`; now it writes a new folder under `runs/`, and `results/`
-/// is untouched. A rerun into a used folder is refused unless
-/// `--overwrite`, which keeps a file the experiment does not write.
+/// An experiment without `--out` writes a new folder of its own under
+/// `runs/` at every size, as `run` does: the committed `results/` is left
+/// alone and a rerun on a fresh clone is not refused. `--publish` writes
+/// into `results/<id>/` (default size only), where a file smokelab did not
+/// write is refused, not replaced. A rerun into a used `--out` folder is
+/// refused unless `--overwrite`, which keeps a file the experiment does
+/// not write.
 #[test]
-fn smoke_experiments_stay_out_of_results_and_reruns_need_overwrite() {
+fn experiments_write_new_folders_and_results_only_when_published() {
     let sb = Sandbox::new();
     let d = sb.path();
     std::fs::create_dir_all(d.join("results/A-1")).unwrap();
     std::fs::write(d.join("results/A-1/data.csv"), "committed").unwrap();
-    let out = sb.ok(&["experiment", "A-1", "--smoke", "--quiet"]).stdout;
-    let out = String::from_utf8_lossy(&out);
+    let mut printed = String::new();
+    for args in [
+        &["experiment", "A-1", "--quiet"][..],
+        &["experiment", "A-1", "--quiet"],
+        &["experiment", "A-1", "--smoke", "--quiet"],
+    ] {
+        printed += &String::from_utf8_lossy(&sb.ok(args).stdout);
+    }
     assert_eq!(
         std::fs::read_to_string(d.join("results/A-1/data.csv")).unwrap(),
         "committed"
     );
-    let runs: Vec<String> = std::fs::read_dir(d.join("runs"))
+    let mut runs: Vec<String> = std::fs::read_dir(d.join("runs"))
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
         .collect();
+    runs.sort();
+    assert_eq!(runs.len(), 3, "{runs:?}");
     assert!(
-        runs.len() == 1 && runs[0].starts_with("A-1-smoke-") && out.contains(&runs[0]),
-        "{runs:?} {out}"
+        runs[..2]
+            .iter()
+            .all(|r| r.starts_with("A-1-") && !r.contains("smoke"))
+            && runs[2].starts_with("A-1-smoke-"),
+        "{runs:?}"
     );
-    // The default size writes into results/: its data.csv there is not
-    // one smokelab recorded writing, so it is refused, not replaced.
+    for r in &runs {
+        assert!(d.join("runs").join(r).join("data.csv").is_file(), "{r}");
+        assert!(
+            printed.contains(&format!("wrote runs/{r}\n")),
+            "{r}: {printed}"
+        );
+    }
+    // --publish writes into results/: its data.csv there is not one
+    // smokelab recorded writing, so it is refused, not replaced.
     sb.refused(
         &[
             "experiment",
             "A-1",
             "--quiet",
+            "--publish",
             "--allow-dirty",
             "--overwrite",
         ],
@@ -49,6 +71,16 @@ fn smoke_experiments_stay_out_of_results_and_reruns_need_overwrite() {
     assert_eq!(
         std::fs::read_to_string(d.join("results/A-1/data.csv")).unwrap(),
         "committed"
+    );
+    // The committed results are the default size's, and --out names
+    // another folder: neither goes with --publish.
+    sb.refused(
+        &["experiment", "A-1", "--publish", "--smoke"],
+        &["--publish", "--smoke"],
+    );
+    sb.refused(
+        &["experiment", "all", "--publish", "--out", "o"],
+        &["--publish", "--out"],
     );
     let args = ["experiment", "A-1", "--smoke", "--quiet", "--out", "mine"];
     sb.ok(&args);

@@ -11,10 +11,12 @@ fn write_volume(path: &Path, shape: (usize, usize, usize)) {
     ndarray_npy::write_npy(path, &a).unwrap();
 }
 
+/// Density files named after a frame (`hot_0100.npy`) name the render
+/// after it: `render_0100.exr`, `.png` and its manifest `render_0100.json`.
 #[test]
 fn render_command_writes_exr_png_and_manifest() {
     let sb = Sandbox::new();
-    let (hot, cold) = (sb.join("hot.npy"), sb.join("cold.npy"));
+    let (hot, cold) = (sb.join("hot_0100.npy"), sb.join("cold_0100.npy"));
     write_volume(&hot, (8, 8, 8));
     write_volume(&cold, (8, 8, 8));
     let out = sb.join("out");
@@ -31,10 +33,11 @@ fn render_command_writes_exr_png_and_manifest() {
         "--out",
         out.to_str().unwrap(),
     ]);
-    let png = image::open(out.join("render.png")).unwrap();
+    let png = image::open(out.join("render_0100.png")).unwrap();
     assert_eq!((png.width(), png.height()), (32, 24));
-    assert!(out.join("render.exr").is_file());
-    let m = common::manifest(&out);
+    assert!(out.join("render_0100.exr").is_file());
+    let m = common::manifest_file(&out.join("render_0100.json"));
+    assert_eq!(m["config"]["frame"], 100);
     assert!(m["extra"]["samples"].as_u64().unwrap() > 0);
     assert_eq!(m["config"]["scene"]["volumes"].as_array().unwrap().len(), 2);
 }
@@ -153,7 +156,13 @@ fn render_takes_the_box_and_the_gases_from_a_run_folder() {
         let mut full = vec!["render", "--image", "16x12", "--out", name];
         full.extend_from_slice(args);
         sb.ok(&full);
-        std::fs::read(d.join(name).join("render.exr")).unwrap()
+        let exr: Vec<_> = std::fs::read_dir(d.join(name))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "exr"))
+            .collect();
+        assert_eq!(exr.len(), 1, "{exr:?}");
+        std::fs::read(&exr[0]).unwrap()
     };
     let files = |frame: &str| ["hot", "cold"].map(|g| format!("r/{g}_{frame}.npy"));
     let [hot4, cold4] = files("0004");
@@ -173,7 +182,7 @@ fn render_takes_the_box_and_the_gases_from_a_run_folder() {
     let mut frame2 = vec!["--density", &hot2, "--density", &cold2];
     frame2.extend(["--size", "5"]);
     assert_eq!(render("f", &["r", "--frame", "2"]), render("g", &frame2));
-    let m = sb.manifest("a");
+    let m = common::manifest_file(&sb.join("a/render_0004.json"));
     assert_eq!(
         m["config"]["scene"]["bounds"]["cell"],
         serde_json::json!(0.5)
@@ -229,5 +238,57 @@ fn render_of_a_partial_run_needs_partial() {
     );
     assert!(!sb.join("out").exists());
     sb.ok(&[&args[..], &["--partial"]].concat());
-    assert!(sb.join("out/render.exr").is_file());
+    assert!(sb.join("out/render_0004.exr").is_file());
+}
+
+/// The frames of a run go into one folder, each named by its frame; a
+/// frame rendered again is refused unless `--overwrite`, which replaces
+/// that frame's files only.
+#[test]
+fn render_names_its_files_by_frame_so_frames_share_a_folder() {
+    let sb = Sandbox::new();
+    sb.small_hot_cold_run("r", &["--save-every", "2"]);
+    let render = |frame: &str, extra: &[&str]| {
+        let mut args = vec!["render", "r", "--frame", frame, "--image", "16x12"];
+        args.extend_from_slice(&["--quiet", "--out", "render"]);
+        args.extend_from_slice(extra);
+        args.into_iter().map(String::from).collect::<Vec<_>>()
+    };
+    let ok = |args: Vec<String>| {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        String::from_utf8(sb.ok(&args).stdout).unwrap()
+    };
+    let printed = ok(render("2", &[]));
+    assert!(
+        printed.contains("wrote render/render_0002.exr and render/render_0002.png"),
+        "{printed}"
+    );
+    ok(render("4", &[]));
+    let mut names: Vec<String> = std::fs::read_dir(sb.join("render"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|n| !n.starts_with('.'))
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "render_0002.exr",
+            "render_0002.json",
+            "render_0002.png",
+            "render_0004.exr",
+            "render_0004.json",
+            "render_0004.png"
+        ]
+    );
+    let again = render("4", &[]);
+    let again: Vec<&str> = again.iter().map(String::as_str).collect();
+    sb.refused(&again, &["render_0004", "--overwrite"]);
+    let frame2 = std::fs::read(sb.join("render/render_0002.exr")).unwrap();
+    ok(render("4", &["--overwrite"]));
+    assert_eq!(
+        std::fs::read(sb.join("render/render_0002.exr")).unwrap(),
+        frame2
+    );
+    assert!(sb.join("render/render_0004.exr").is_file());
 }

@@ -1,13 +1,13 @@
 //! **Data gate, not a code test**: it checks the committed `results/`, not
 //! the code. It passes when every `results/**/manifest.json` records one and
-//! the same clean commit (`experiment all` refuses to write `results/` from
+//! the same clean commit (`experiment all --publish` refuses to write `results/` from
 //! a dirty build), and when what only the default-size runs can show holds
 //! on the committed data (07-10's memory per gridless frame, 08-2's render
 //! time per chain length).
 //!
 //! When it fails after a code change, the code is not (necessarily) wrong:
 //! the committed results are stale or mixed. Regenerate them from one clean
-//! commit with `smokelab experiment all --overwrite` and commit `results/`;
+//! commit with `smokelab experiment all --publish --overwrite` and commit `results/`;
 //! run this gate alone with
 //! `cargo test --release -p smokelab-app --test results_provenance`.
 
@@ -54,7 +54,7 @@ fn committed_results_come_from_one_clean_commit() {
     assert_eq!(
         first.0,
         last.0,
-        "results come from several commits, e.g. {} ({}) and {} ({}): regenerate with `smokelab experiment all`",
+        "results come from several commits, e.g. {} ({}) and {} ({}): regenerate with `smokelab experiment all --publish --overwrite`",
         first.1.display(),
         first.0,
         last.1.display(),

@@ -121,6 +121,39 @@ def test_coordinates_and_time_agree_with_manifest_and_metrics(hot_cold_dir):
     assert float(metrics.div_rms.max()) < 1e-6
 
 
+def test_coordinates_are_the_exact_centres_so_sel_finds_them(tmp_path):
+    """smokelab's box is f32, so a manifest records the cell 0.2 as
+    0.20000000298023224; the coordinates are the f64 of the exact centres
+    and faces of the box the run was given, so selecting by the position a
+    user types finds the sample (it raised KeyError at 0.50000001)."""
+    f32 = lambda v: float(np.float32(v))  # noqa: E731
+    grid = sx.Grid.from_record({"origin": [0.0, -1.0, f32(0.1)], "cell": f32(0.2), "dims": [50, 10, 5]})
+    assert grid.cell == 0.2 and grid.origin == (0.0, -1.0, 0.1)
+    assert list(grid.centres("x")[:4]) == [0.1, 0.3, 0.5, 0.7] and grid.centres("x")[49] == 9.9
+    assert list(grid.faces("y", 4)) == [-1.0, -0.8, -0.6, -0.4]
+    assert list(grid.centres("z")) == [0.2, 0.4, 0.6, 0.8, 1.0]
+    assert list(grid.fine_centres("x", (5, 10, 100))[:3]) == [0.05, 0.15, 0.25]
+    # A value that is not an f32 is kept as it is.
+    assert sx.Grid.from_record({"origin": [0.1, 0, 0], "cell": 0.3, "dims": [2, 2, 2]}).cell == 0.3
+    # End to end: the hot/cold default box, 50 cells of 0.2.
+    out = tmp_path / "run"
+    smokelab("run", "hot-cold", "--frames", 1, "--save-every", 1, "--quiet", "--out", out)
+    vol = sx.open_run(out).volumes
+    assert float(vol.x.sel(x=0.5)) == 0.5 and float(vol.y_face.sel(y_face=4.8)) == 4.8
+    assert vol.hot.sel(step=1, x=0.5, y=4.9, z=7.1).shape == ()
+
+
+def test_a_run_without_its_volumes_warns(hot_cold_dir, tmp_path):
+    """A committed results/ run folder keeps its manifest and metrics but no
+    volumes: its empty Dataset comes with a warning saying why."""
+    copy = tmp_path / "run"
+    shutil.copytree(hot_cold_dir, copy)
+    for f in copy.glob("*.npy"):
+        f.unlink()
+    with pytest.warns(UserWarning, match=r"holds no saved volumes"):
+        assert sx.open_run(copy).volumes.sizes == {}
+
+
 def test_fine_samples_lie_on_their_own_centres(hot_cold_dir):
     """--sample-res 20: the fine grid's coordinates cover the same box and
     put the same gas at the same centroid as the 16³ one."""

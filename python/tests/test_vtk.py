@@ -4,7 +4,7 @@ them (pip `vtk`): geometry, cell order, names and values against the
 
 VTK has no reader for `.pvd`, so the collection is parsed as the XML it
 is and each file it lists is read by VTK; ParaView's own PVD reader
-(`pvpython`, Debian's `paraview`) reads it where installed."""
+(`pvpython`, Debian's `python3-paraview`) reads it where installed."""
 
 import json
 import shutil
@@ -100,7 +100,7 @@ print("REPORT " + json.dumps({"times": times, "arrays": sorted(reader.CellData.k
 """
 
 
-@pytest.mark.skipif(PVPYTHON is None, reason="ParaView is not installed (apt-get install paraview)")
+@pytest.mark.skipif(PVPYTHON is None, reason="ParaView is not installed (apt-get install python3-paraview)")
 def test_paraview_reads_run_pvd_as_a_time_series(hot_cold_dir, tmp_path):
     """ParaView's own PVD reader (pvpython) takes run.pvd as one time series
     whose time t shows the frame open_run puts at t."""

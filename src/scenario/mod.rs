@@ -25,12 +25,12 @@ pub enum ScenarioKind {
     /// Buoyant gas in a closed box flowing around a slab (§6.3, fig 6.6).
     SlabBox,
     /// A sphere in LeVeque's 3D deformation field, returning at one period
-    /// (prescribed velocity, `scenario::prescribed`).
+    /// (prescribed velocity).
     Deformation,
     /// Zalesak's slotted sphere in rigid rotation (prescribed velocity).
     Zalesak,
     /// The Taylor–Green vortex decaying under the full Navier–Stokes step,
-    /// measured against its exact solution ([`taylor_green`]).
+    /// measured against its exact solution.
     TaylorGreen,
     /// The Taylor–Green vortex at Re = 1600 breaking down into turbulence
     /// (the high-order CFD workshop's case C3.5, [`taylor_green_3d`]).

@@ -105,8 +105,12 @@ impl Sandbox {
 
 /// The `manifest.json` of the folder `dir`.
 pub fn manifest(dir: &Path) -> serde_json::Value {
-    let path = dir.join("manifest.json");
-    let text = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    manifest_file(&dir.join("manifest.json"))
+}
+
+/// A manifest by its path (`render_0004.json`).
+pub fn manifest_file(path: &Path) -> serde_json::Value {
+    let text = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     serde_json::from_slice(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 

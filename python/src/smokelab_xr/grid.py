@@ -13,13 +13,40 @@ into coordinates so that nobody has to remember them:
   cell ``i``, at ``origin.x + i Δx``. A periodic box stores ``n`` faces per
   axis (the high face of the last cell is face 0); a closed box stores
   ``n + 1``, the wall faces 0 and ``n`` exactly zero.
+
+smokelab holds the box in f32, so a manifest records the cell 0.2 as
+0.20000000298023224. The coordinates here are the f64 nearest the exact
+centres and faces of the box the run was given: the origin and the cell are
+read as the shortest decimal their f32 value prints as (0.2), and each
+coordinate ``origin + (i + ½) Δx`` is computed exactly from those decimals,
+then rounded once. So ``.sel(x=0.5)`` finds the centre at 0.5.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
+
+
+def _f32_decimal(value: float) -> float:
+    """``value`` as the shortest decimal its f32 prints as, when it is an f32
+    (0.20000000298023224 → 0.2); other values as they are."""
+    single = np.float32(value)
+    return float(str(single)) if float(single) == value and np.isfinite(single) else value
+
+
+def _exact(value: float) -> Fraction:
+    """The decimal Python prints ``value`` as, exactly (0.2 → 1/5)."""
+    return Fraction(repr(float(value)))
+
+
+def _positions(origin: float, step: Fraction, offset: Fraction, count: int) -> np.ndarray:
+    """``origin + (i + offset) step`` for i = 0 … count − 1, each computed
+    exactly and rounded once to f64."""
+    o = _exact(origin)
+    return np.array([float(o + (i + offset) * step) for i in range(count)], dtype=float)
 
 AXES = ("x", "y", "z")
 
@@ -40,8 +67,8 @@ class Grid:
         Raises ``ValueError`` naming the bad entry if the record is not a grid.
         """
         try:
-            origin = tuple(float(v) for v in record["origin"])
-            cell = float(record["cell"])
+            origin = tuple(_f32_decimal(float(v)) for v in record["origin"])
+            cell = _f32_decimal(float(record["cell"]))
             dims = tuple(int(n) for n in record["dims"])
         except (KeyError, TypeError, ValueError) as e:
             raise ValueError(f"extra.grid is not a grid record ({e!r}): {record!r}") from None
@@ -66,19 +93,18 @@ class Grid:
     def centres(self, axis: str) -> np.ndarray:
         """Cell centres along ``axis``: ``origin + (i + ½) Δx``, i = 0 … n − 1."""
         a = AXES.index(axis)
-        return self.origin[a] + (np.arange(self.dims[a]) + 0.5) * self.cell
+        return _positions(self.origin[a], _exact(self.cell), Fraction(1, 2), self.dims[a])
 
     def faces(self, axis: str, count: int) -> np.ndarray:
         """The first ``count`` faces along ``axis``: ``origin + i Δx`` (face i
         is the low face of cell i); ``count`` is n (periodic) or n + 1 (closed)."""
         a = AXES.index(axis)
-        return self.origin[a] + np.arange(count) * self.cell
+        return _positions(self.origin[a], _exact(self.cell), Fraction(0), count)
 
     def fine_centres(self, axis: str, shape: tuple) -> np.ndarray:
         """Cell centres along ``axis`` of the same box sampled to ``shape``
         ``(nz, ny, nx)`` (``--sample-res S``: S cells along the longest axis,
         so the fine cell is ``max(size) / max(shape)``)."""
         a = AXES.index(axis)
-        cell = float(self.size.max()) / max(shape)
-        n = shape[2 - a]
-        return self.origin[a] + (np.arange(n) + 0.5) * cell
+        cell = _exact(self.cell) * max(self.dims) / max(shape)
+        return _positions(self.origin[a], cell, Fraction(1, 2), shape[2 - a])

@@ -146,6 +146,15 @@ class Run:
             )
         obstacle = self.path / "obstacle.npy"
         if not steps and not obstacle.exists():
+            if self.grid is not None:
+                # A run's folder without its volumes: the committed results/
+                # keep the manifest and metrics only (volumes are git-ignored).
+                warnings.warn(
+                    f"{self.path} holds no saved volumes (<gas>_NNNN.npy): an empty Dataset; "
+                    f"committed results keep only the manifest and metrics, so rerun it "
+                    f"(smokelab run … --out DIR) to have the volumes",
+                    stacklevel=2,
+                )
             return xr.Dataset(attrs=self.attrs)
         grid = self.grid
         if grid is None:
