@@ -119,10 +119,10 @@ fn print_config_round_trips() {
         let listed =
             String::from_utf8(sb.run(&["run", scenario, "--set", "nokey=1"]).stderr).unwrap();
         let keys = listed.split(" has the keys ").nth(1).unwrap().trim();
+        let lines = format!("\n{printed}");
         for key in keys.split(", ") {
             assert!(
-                printed.contains(&format!("\n{key} = "))
-                    || printed.contains(&format!("\n# {key} =\n")),
+                lines.contains(&format!("\n{key} = ")) || lines.contains(&format!("\n# {key} =\n")),
                 "{scenario}: {key} missing from\n{printed}"
             );
         }
