@@ -38,8 +38,9 @@ fn v1_smoke_table_orders_and_published_values() {
     let rows = table(&out.join("data.csv"));
     let orders = table(&out.join("orders.csv"));
     // Two cases × (4 gridded schemes + gridless + SELMA twice) × 2
-    // resolutions, and Taylor–Green's 4 schemes × 2.
-    assert_eq!(rows.len(), 2 * 7 * 2 + 4 * 2, "rows of data.csv");
+    // resolutions, Taylor–Green's 4 schemes × 2, and the Re 1600
+    // benchmark's 4 schemes without and with confinement.
+    assert_eq!(rows.len(), 2 * 7 * 2 + 4 * 2 + 4 * 2, "rows of data.csv");
     for r in &rows {
         assert!(r["seconds"] == "NaN" || num(r, "seconds") >= 0.0);
     }
