@@ -106,11 +106,11 @@ fn levels(size: Size) -> Levels {
 fn studies(size: Size) -> Vec<Study> {
     let l = levels(size);
     let mut studies: Vec<Study> = vec![];
-    for bt in Backtrace::ALL {
+    for bt in Backtrace::INTEGRATORS {
         studies.push(cases::sl_uniform(bt, &l.line));
         studies.push(cases::sl_rotation(bt, &l.plane));
     }
-    for bt in Backtrace::ALL {
+    for bt in Backtrace::INTEGRATORS {
         studies.push(cases::maccormack_uniform(bt, &l.line));
         studies.push(cases::maccormack_rotation(bt, &l.plane));
         studies.push(cases::bfecc_uniform(bt, &l.line));
@@ -124,7 +124,7 @@ fn studies(size: Size) -> Vec<Study> {
     studies.push(cases::taylor_green_maccormack(&l.plane));
     studies.push(cases::taylor_green_bfecc(&l.plane));
     studies.push(cases::projection_mac(&l.cube));
-    for bt in Backtrace::ALL {
+    for bt in Backtrace::INTEGRATORS {
         let steps = if bt == Backtrace::Rk3 {
             &l.steps_rk3
         } else {

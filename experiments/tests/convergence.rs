@@ -22,14 +22,14 @@ fn assert_study(study: &Study) {
 
 #[test]
 fn semi_lagrangian_uniform_flow_is_first_order() {
-    for bt in Backtrace::ALL {
+    for bt in Backtrace::INTEGRATORS {
         assert_study(&cases::sl_uniform(bt, &[32, 64, 128, 256]));
     }
 }
 
 #[test]
 fn semi_lagrangian_rotation_is_first_order() {
-    for bt in Backtrace::ALL {
+    for bt in Backtrace::INTEGRATORS {
         assert_study(&cases::sl_rotation(bt, &[32, 64, 128]));
     }
 }
@@ -50,7 +50,7 @@ fn quick_uniform_flow_is_second_order_and_beats_semi_lagrangian() {
 
 #[test]
 fn maccormack_is_near_second_order_in_smooth_flow() {
-    for bt in Backtrace::ALL {
+    for bt in Backtrace::INTEGRATORS {
         assert_study(&cases::maccormack_uniform(bt, &[32, 64, 128, 256]));
         assert_study(&cases::maccormack_rotation(bt, &[32, 64, 128]));
     }
@@ -58,7 +58,7 @@ fn maccormack_is_near_second_order_in_smooth_flow() {
 
 #[test]
 fn bfecc_is_near_second_order_in_smooth_flow() {
-    for bt in Backtrace::ALL {
+    for bt in Backtrace::INTEGRATORS {
         assert_study(&cases::bfecc_uniform(bt, &[32, 64, 128, 256]));
         assert_study(&cases::bfecc_rotation(bt, &[32, 64, 128]));
     }

@@ -21,6 +21,7 @@ mod closed_faces;
 pub(crate) mod kernel;
 mod lattice;
 pub mod maccormack;
+mod pollock;
 pub mod quick;
 pub mod semi_lagrangian;
 
@@ -57,11 +58,37 @@ pub enum Backtrace {
     Rk2,
     /// Kutta's third-order rule.
     Rk3,
+    /// The exact path through the RT0 velocity, cell by cell in closed
+    /// form (Pollock 1988, [`pollock`]): volume-preserving, and it never
+    /// crosses a face of zero flux. Needs `interpolant = rt0`
+    /// (`SolverConfig::validate`); every instruction set runs it as scalar
+    /// code.
+    Exact,
 }
 
 impl Backtrace {
+    /// The time integrators, which follow any interpolant with a path
+    /// error of their [`Self::order`] in Δt (convergence studies).
+    pub const INTEGRATORS: [Backtrace; 3] = [Backtrace::Euler, Backtrace::Rk2, Backtrace::Rk3];
+
     /// Every variant, for tests and listings.
-    pub const ALL: [Backtrace; 3] = [Backtrace::Euler, Backtrace::Rk2, Backtrace::Rk3];
+    pub const ALL: [Backtrace; 4] = [
+        Backtrace::Euler,
+        Backtrace::Rk2,
+        Backtrace::Rk3,
+        Backtrace::Exact,
+    ];
+
+    /// The order in Δt of a time integrator's path error; `None` for
+    /// [`Backtrace::Exact`], whose path through the RT0 velocity has none.
+    pub fn order(self) -> Option<u32> {
+        match self {
+            Backtrace::Euler => Some(1),
+            Backtrace::Rk2 => Some(2),
+            Backtrace::Rk3 => Some(3),
+            Backtrace::Exact => None,
+        }
+    }
 }
 
 /// The advection scheme for velocity and densities.

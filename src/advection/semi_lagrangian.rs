@@ -137,6 +137,7 @@ pub(crate) fn departure(
             let k3 = -dt_cells * vel.at(c - k1 + 2.0 * k2);
             c + (k1 + 4.0 * k2 + k3) / 6.0
         }
+        Backtrace::Exact => super::pollock::departure(vel, c, dt_cells),
     }
 }
 
@@ -437,7 +438,7 @@ fn sweep(
     // of several slabs, a few per thread.
     let chunk = match backtrace {
         Backtrace::Rk2 => (slabs / (4 * rayon::current_num_threads())).max(4),
-        Backtrace::Euler | Backtrace::Rk3 => 1,
+        Backtrace::Euler | Backtrace::Rk3 | Backtrace::Exact => 1,
     };
     out.par_chunks_mut(chunk).for_each_init(
         || Scratch::new(row),

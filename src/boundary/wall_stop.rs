@@ -12,8 +12,10 @@
 //! cell, and `ε` = [`MARGIN`] cells so that the point lands in the fluid.
 //! For the signed distances of [`super::level_set`] one step suffices away
 //! from edges; at most [`MAX_STEPS`] are taken. Gridless and SELMA densities
-//! are zero at points inside obstacles (`O ≥ 0`), as the dry cells of a
-//! gridded density are.
+//! are zero at points in the dry cells ([`WallStop::dry_world`]), as a
+//! gridded density is: the cells the flow sees as solid
+//! ([`OpenFaces`]), so that a walk that keeps to the wet cells — the
+//! exact RT0 path never leaves them — keeps its gas.
 //!
 //! Measured at slab-box 32³, SL, 200 steps (gas in the fluid cells over gas
 //! injected): SELMA keeps 95.1 % with the stop and gains to 127 % without
@@ -25,7 +27,9 @@
 
 use glam::Vec3;
 
-use crate::grid::ScalarGrid;
+use crate::domain::wrap_grid;
+use crate::grid::interpolant::cell_centre;
+use crate::grid::{OpenFaces, ScalarGrid};
 
 /// How far into the fluid a stopped point is placed, in cells.
 pub const MARGIN: f32 = 0.01;
@@ -39,13 +43,16 @@ pub const MAX_STEPS: usize = 3;
 pub struct WallStop {
     /// `O` at the cell centres, world units, positive inside.
     level: ScalarGrid,
+    /// The wet cells of `level` ([`OpenFaces::wet`]).
+    wet: Vec<bool>,
 }
 
 impl WallStop {
     /// Stop at the zero set of `level` (`O` at the cell centres, positive
     /// inside, world units).
     pub fn new(level: ScalarGrid) -> Self {
-        Self { level }
+        let wet = OpenFaces::new(&level).wet().to_vec();
+        Self { level, wet }
     }
 
     /// `O` at grid coordinates `g` (trilinear), world units.
@@ -64,6 +71,17 @@ impl WallStop {
     #[inline]
     pub fn inside_world(&self, p: Vec3) -> bool {
         self.inside(self.level.domain().grid_coords(p))
+    }
+
+    /// Whether world point `p` lies in a dry cell: the cell holding it
+    /// (wrapped periodically) is not wet ([`OpenFaces::wet`]), the cells
+    /// where the pressure solve and the gridded densities hold no fluid.
+    #[inline]
+    pub fn dry_world(&self, p: Vec3) -> bool {
+        let d = self.level.domain();
+        let g = wrap_grid(d.grid_coords(p), d.dims);
+        let [i, j, k] = [0, 1, 2].map(|a| (cell_centre(g[a]).max(0.0) as usize).min(d.dims[a] - 1));
+        !self.wet[(k * d.dims[1] + j) * d.dims[0] + i]
     }
 
     /// `g`, or the point of the surface it is moved to if it lies inside an

@@ -35,7 +35,6 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use super::{BoxWrap, DensityMode};
-use crate::boundary::WallStop;
 use crate::domain::Domain;
 use crate::error::InputError;
 
@@ -150,44 +149,23 @@ pub(crate) fn sub_sum(values: &[f32], m: usize) -> f32 {
 }
 
 /// `out[m]` = the value of cell `m` from `values` at its
-/// [`cell_points`] `points`: the value itself, or the mean over its
-/// sub-points that lie in the fluid (outside `walls`) — the average over
-/// the cell's fluid part, so that a cell cut by a wall keeps its gas (zero
-/// when every sub-point is inside). Without walls, or with all eight
-/// outside, the mean of all eight.
+/// [`cell_points`]: the value itself, or the mean of its eight sub-points
+/// (a cell is wet or dry as a whole, and a dry cell's values are cleared
+/// afterwards, [`crate::boundary::WallStop::dry_world`]).
 ///
 /// # Panics
-/// If `values` and `points` do not hold `samples.count()` entries per cell
-/// of `out`.
-pub(crate) fn cell_values(
-    samples: CellSamples,
-    values: &[f32],
-    (points, walls): (&[Vec3], Option<&WallStop>),
-    out: &mut [f32],
-) {
+/// If `values` does not hold `samples.count()` entries per cell of `out`.
+pub(crate) fn cell_values(samples: CellSamples, values: &[f32], out: &mut [f32]) {
     let n = out.len();
     assert!(
-        values.len() == samples.count() * n && points.len() == values.len(),
+        values.len() == samples.count() * n,
         "cell_values: one value per sample point"
     );
-    match (samples, walls) {
-        (CellSamples::Centre, _) => out.copy_from_slice(values),
-        (CellSamples::Average, None) => {
+    match samples {
+        CellSamples::Centre => out.copy_from_slice(values),
+        CellSamples::Average => {
             for (m, o) in out.iter_mut().enumerate() {
                 *o = sub_sum(values, m) * 0.125;
-            }
-        }
-        (CellSamples::Average, Some(w)) => {
-            for (m, o) in out.iter_mut().enumerate() {
-                let wet = (0..SUB.len()).filter(|s| !w.inside_world(points[s * n + m]));
-                let (sum, count) = wet.fold((0.0f32, 0u8), |(sum, count), s| {
-                    (sum + values[s * n + m], count + 1)
-                });
-                *o = if count == 0 {
-                    0.0
-                } else {
-                    sum / f32::from(count)
-                };
             }
         }
     }
@@ -215,7 +193,7 @@ mod tests {
         let ramp = |p: Vec3| 1.0 + p.x - 2.0 * p.y + 0.5 * p.z;
         let values: Vec<f32> = points.iter().map(|&p| ramp(p)).collect();
         let mut cells = [0.0; 2];
-        cell_values(CellSamples::Average, &values, (&points, None), &mut cells);
+        cell_values(CellSamples::Average, &values, &mut cells);
         // Dyadic centres, offsets and slopes: every value and sum is exact.
         for (&c, &p) in cells.iter().zip(&centres) {
             assert_eq!(c, ramp(p));

@@ -27,6 +27,10 @@
 //!   is then bounded by interval arithmetic, per component:
 //!   Euler `x − Δt u(x) ∈ D − Δt U(D)`; RK2 `m = x − ½Δt u(x) ∈ M = D − ½Δt U(D)`
 //!   and `x − Δt u(m) ∈ D − Δt U(M)`; RK3 likewise through its three stages;
+//!   the exact RT0 path (whose velocity, a convex combination of a cell's
+//!   two faces, lies in the same `U`) stays in any box `R ⊇ D − [0, Δt] U(R)`,
+//!   found by growing `R` from `D` ([`MAX_GROWTH`] times at most, else the
+//!   whole box);
 //! - the walk wraps positions into the periodic box after every step; a
 //!   periodic velocity reads the same faces at a point and at its periodic
 //!   images, so `D` is carried unwrapped and `ρ₀`, `S` are tested on its
@@ -66,6 +70,12 @@ pub const TILE: usize = 2;
 
 /// Widening of every box of the bound, cells (covers the walk's rounding).
 pub const PAD: f64 = 1e-3;
+
+/// How many times the exact path's box is grown before the bound gives up
+/// and takes the whole box (module documentation): each growth reads the
+/// velocity over a larger box, so it settles once the box holds the flow's
+/// reach, a few growths at the solver's CFL numbers.
+pub const MAX_GROWTH: usize = 32;
 
 /// Inclusive index ranges `(first, last)` of one axis that a window
 /// `i0 ..= i1` covers on `n` entries, periodic (one or two ranges) or
@@ -347,6 +357,30 @@ impl StepBound {
                     lo + (k1.0 + 4.0 * k2.0 + k3.0) / 6.0,
                     hi + (k1.1 + 4.0 * k2.1 + k3.1) / 6.0,
                 )
+            }
+            Backtrace::Exact => {
+                // The path stays in any box R ⊇ D − [0, Δt] U(R): grown
+                // from D until it holds; the whole box if it does not.
+                let mut r = (lo, hi);
+                let mut closed = false;
+                for _ in 0..MAX_GROWTH {
+                    let (a, b) = back((lo, hi), dt, self.velocity(r));
+                    let next = (r.0.min(a), r.1.max(b));
+                    if next == r {
+                        closed = true;
+                        break;
+                    }
+                    r = next;
+                }
+                let whole = DVec3::new(
+                    self.dims[0] as f64,
+                    self.dims[1] as f64,
+                    self.dims[2] as f64,
+                );
+                match closed {
+                    true => r,
+                    false => (lo - whole, hi + whole),
+                }
             }
         };
         a -= PAD;

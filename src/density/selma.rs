@@ -259,7 +259,7 @@ impl ScalarField for SelmaField {
 
     fn eval_batch(&self, points: &[Vec3], out: &mut [f32]) {
         self.composed(points, out);
-        self.clear_inside(points, out);
+        self.clear_dry(points, out);
     }
 }
 
@@ -299,11 +299,11 @@ impl SelmaField {
         }
     }
 
-    /// Zero where `points` lie inside obstacles.
-    fn clear_inside(&self, points: &[Vec3], out: &mut [f32]) {
+    /// Zero where `points` lie in dry cells ([`WallStop::dry_world`]).
+    fn clear_dry(&self, points: &[Vec3], out: &mut [f32]) {
         if let Some(w) = &self.walls {
             for (o, &p) in out.iter_mut().zip(points) {
-                if w.inside_world(p) {
+                if w.dry_world(p) {
                     *o = 0.0;
                 }
             }
@@ -728,12 +728,8 @@ impl Selma {
                     }
                     values.resize(xi.len(), 0.0);
                     field.at_reference(xi, values);
-                    let sampled = match samples {
-                        CellSamples::Centre => &centres[..],
-                        CellSamples::Average => &points[..],
-                    };
-                    cell_values(samples, values, (sampled, field.walls.as_deref()), out);
-                    field.clear_inside(centres, out);
+                    cell_values(samples, values, out);
+                    field.clear_dry(centres, out);
                 },
             );
         self.stale = false;

@@ -162,7 +162,8 @@ solver_keys! {
     confinement: f32 = 0.0;
     flag confinement: Option<f32> [allow_negative_numbers = true] => given;
 
-    /// Semi-Lagrangian backtrace: `euler`, `rk2` or `rk3`.
+    /// Semi-Lagrangian backtrace: `euler`, `rk2`, `rk3`, or `exact` (the
+    /// exact path through the RT0 velocity; needs `interpolant = rt0`).
     backtrace: Backtrace = Backtrace::Rk2;
     flag backtrace: Option<Backtrace> [value_enum] => given;
 
@@ -352,6 +353,12 @@ impl SolverConfig {
             return Err(InputError::new(format!(
                 "selma_remap {} is only used by --density selma (density is {})",
                 self.selma_remap, self.density
+            )));
+        }
+        if self.backtrace == Backtrace::Exact && self.interpolant != Interpolant::Rt0 {
+            return Err(InputError::new(format!(
+                "backtrace exact follows the RT0 velocity; it needs interpolant rt0 (interpolant is {})",
+                self.interpolant
             )));
         }
         if self.box_kind == BoxKind::Closed {

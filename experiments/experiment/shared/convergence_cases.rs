@@ -538,11 +538,10 @@ fn eval_points(f: &dyn ScalarField, points: &[Vec3]) -> Vec<f32> {
 /// round-off (~10⁻⁶ of the blob) below Δt ≈ 1/128: refine it from coarser steps.
 pub fn gridless_rotation(backtrace: Backtrace, steps: &[usize]) -> Study {
     let name = format!("gridless_{backtrace:?}").to_lowercase();
-    let expected = match backtrace {
-        Backtrace::Euler => 1.0,
-        Backtrace::Rk2 => 2.0,
-        Backtrace::Rk3 => 3.0,
-    };
+    let expected = backtrace
+        .order()
+        .expect("gridless_rotation: a time integrator (Backtrace::INTEGRATORS)")
+        as f64;
     let mut study = Study::new(name, expected, "Δt (grid fixed)");
     let d = slab_domain(16, 1.0);
     let vel = Arc::new(FaceGrid::from_field(

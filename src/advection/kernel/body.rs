@@ -694,6 +694,7 @@ macro_rules! kernel {
                 Backtrace::Euler => outs.iter_mut().for_each(|o| slab_traced::<EULER>(sw, o, scratch)),
                 Backtrace::Rk2 => shared_chunk(sw, outs, scratch),
                 Backtrace::Rk3 => outs.iter_mut().for_each(|o| slab_traced::<RK3>(sw, o, scratch)),
+                Backtrace::Exact => unreachable!("the exact path takes the reference"),
             }
         }
 
@@ -749,6 +750,7 @@ macro_rules! kernel {
                 Backtrace::Euler => cell_points_traced::<EULER>(vel, dt, backtrace, at, out, scratch),
                 Backtrace::Rk2 => cell_points_traced::<RK2>(vel, dt, backtrace, at, out, scratch),
                 Backtrace::Rk3 => cell_points_traced::<RK3>(vel, dt, backtrace, at, out, scratch),
+                Backtrace::Exact => unreachable!("the exact path takes the reference"),
             }
         }
 
@@ -863,6 +865,7 @@ macro_rules! kernel {
                 Backtrace::Euler => points_traced::<EULER>(vel, dt, backtrace, g, into_box),
                 Backtrace::Rk2 => points_traced::<RK2>(vel, dt, backtrace, g, into_box),
                 Backtrace::Rk3 => points_traced::<RK3>(vel, dt, backtrace, g, into_box),
+                Backtrace::Exact => unreachable!("the exact path takes the reference"),
             }
         }
 

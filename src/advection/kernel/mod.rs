@@ -84,6 +84,13 @@ impl<'a> Vel<'a> {
     }
 }
 
+/// Whether a trace takes the scalar reference for every point: a lattice
+/// too large for the lanes' indices ([`fits`]), or the exact RT0 path
+/// ([`Backtrace::Exact`], data-dependent cell by cell).
+fn by_reference(vel: &Vel, backtrace: Backtrace) -> bool {
+    !vel.fits || backtrace == Backtrace::Exact
+}
+
 /// Whether a lattice of `dims` has fewer than 2³¹ values (the kernel's
 /// indices are `i32`).
 pub(crate) fn fits(dims: [usize; 3]) -> bool {
@@ -232,7 +239,7 @@ mod reference {
 /// # Panics
 /// If an output slab is shorter than its lattice's.
 pub(crate) fn chunk(isa: Isa, sweep: &Sweep, outs: &mut [SlabOut], scratch: &mut Scratch) {
-    if !sweep.vel.fits {
+    if by_reference(&sweep.vel, sweep.backtrace) {
         for out in outs {
             reference::slab(sweep, out);
         }
@@ -292,7 +299,7 @@ pub(crate) fn cell_points(
     out: [&mut [f32]; 3],
     scratch: &mut Scratch,
 ) {
-    if !vel.fits {
+    if by_reference(vel, backtrace) {
         let [x, y, z] = out;
         for i in 0..vel.cells[0] {
             let p = cell_by_reference(vel, (dt, backtrace), [i, j, k]);
@@ -349,7 +356,7 @@ pub(crate) fn points(
     g: &mut [Vec3],
     into_box: Option<[usize; 3]>,
 ) {
-    if !vel.fits {
+    if by_reference(vel, backtrace) {
         for p in g {
             *p = point_by_reference(vel, (dt, backtrace), *p, into_box);
         }
