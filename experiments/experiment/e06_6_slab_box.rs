@@ -8,29 +8,34 @@
 //! density. Frames 11, 29, 74, 124 and 200 of a 200-frame run, left to
 //! right, as mid-plane slices (z = L/2), one row per case:
 //!
-//! 1. SL, gridless, reflecting walls; 2. the same, sticky α = 0.5;
-//! 3. SL, gridded, reflecting; 4. SL, SELMA, reflecting;
-//! 5. QUICK, gridded, reflecting; 6. QUICK, gridded, sticky α = 0.5 —
-//!    all with the exact obstacle projection (`--obstacles exact`);
-//! 7. SL, gridded, reflecting with the notes' method (`--obstacles notes`:
+//! 1. SL, gridless, reflecting walls; 2. the same on the exact path through
+//!    the RT0 velocity (`--interpolant rt0 --backtrace exact`), whose walks
+//!    need no volume factor; 3. row 1 sticky, α = 0.5;
+//! 4. SL, gridded, reflecting; 5. SL, SELMA, reflecting; 6. SELMA on the
+//!    exact RT0 path; 7. QUICK, gridded, reflecting; 8. QUICK, gridded,
+//!    sticky α = 0.5 — all with the exact obstacle projection
+//!    (`--obstacles exact`);
+//! 9. SL, gridded, reflecting with the notes' method (`--obstacles notes`:
 //!    eqs 6.6–6.7 after a periodic projection), for comparison.
 //!
 //! The notes do not give fig 6.6's grid; `--full` uses 50³, the resolution of
 //! their other chapter-6 runs, and 200 frames. The default run is reduced to
 //! **40³** (same 200 frames and physical setup): about 4 minutes on a
-//! 2-core machine (8 with builds running), most of it the two gridless rows;
+//! 2-core machine (8 with builds running), most of it the three gridless rows;
 //! `--smoke` is 26³ and 12 frames.
 //!
 //! Run: `smokelab experiment 06-6` (`--full`, `--smoke`).
 //!
-//! Writes `results/06-6/`: `fig_6_6_render.png` (the seven rows as volume
+//! Writes `results/06-6/`: `fig_6_6_render.png` (the nine rows as volume
 //! renders: green gas, the box's walls as a faint blue haze, the red slab),
 //! `fig_6_6.png` (the same as mid-plane slices), `retained.png` /
 //! `.svg` (gas in the fluid cells over gas injected, per step and case),
-//! `data.csv` (one line per case: the largest share of the gas inside
-//! obstacles, the largest speed through a closed face, the mean flux
-//! divergence of the fluid cells, the final and lowest retained fraction,
-//! final vs injected mass at 2× sampling, the share of the last saved
+//! `data.csv` (one line per case: its interpolant and backtrace, the
+//! largest share of the gas inside obstacles, the largest speed through a
+//! closed face, the mean flux divergence of the fluid cells, the final and
+//! lowest retained fraction, final vs injected mass at 2× sampling, the
+//! peak density at 2× sampling (`density_max`, every `metrics_every`
+//! steps) and its ratio to the SL gridded run's, the share of the last saved
 //! density's mass in isolated blobs (`smokelab::metrics::blobs`: components
 //! of fewer than 8 cells above 5 % of the maximum), the mean conjugate-gradient
 //! iterations of the obstacle solve and of QUICK's open-face projection,
@@ -57,12 +62,12 @@ use crate::figures::plot::{LegendPosition, Plot, Series};
 use crate::figures::table::Columns;
 use crate::run::frames::SaveFrames;
 use crate::run::{self, RunOptions};
-use smokelab::advection::Scheme;
+use smokelab::advection::{Backtrace, Scheme};
 use smokelab::boundary::{AsField, BoundaryRule, Obstacle, ObstacleMethod};
 use smokelab::density::DensityMode;
 use smokelab::domain::Domain;
 use smokelab::field::Scalar;
-use smokelab::grid::ScalarGrid;
+use smokelab::grid::{Interpolant, ScalarGrid};
 use smokelab::io::{self, preview};
 use smokelab::metrics::{isolated_mass_share, BLOB_CELLS, BLOB_LEVEL};
 use smokelab::scenario::slab_box::SlabBoxConfig;
@@ -88,6 +93,9 @@ struct Case {
     method: ObstacleMethod,
     rule: BoundaryRule,
     alpha: f32,
+    /// Trilinear with the midpoint rule (the notes'), or the exact path
+    /// through the RT0 velocity.
+    rt0_exact: bool,
 }
 
 impl Case {
@@ -105,6 +113,16 @@ impl Case {
             method: ObstacleMethod::Exact,
             rule,
             alpha,
+            rt0_exact: false,
+        }
+    }
+
+    /// This case on the exact path through the RT0 velocity, as `name`.
+    const fn rt0_exact(self, name: &'static str) -> Self {
+        Self {
+            name,
+            rt0_exact: true,
+            ..self
         }
     }
 }
@@ -112,11 +130,13 @@ impl Case {
 use BoundaryRule::{Reflect, Sticky};
 use DensityMode::{Gridded, Gridless, Selma};
 
-const CASES: [Case; 7] = [
+const CASES: [Case; 9] = [
     Case::exact("sl-gridless-reflect", Scheme::Sl, Gridless, Reflect, 1.0),
+    Case::exact("", Scheme::Sl, Gridless, Reflect, 1.0).rt0_exact("sl-gridless-reflect-rt0"),
     Case::exact("sl-gridless-sticky", Scheme::Sl, Gridless, Sticky, 0.5),
     Case::exact("sl-gridded-reflect", Scheme::Sl, Gridded, Reflect, 1.0),
     Case::exact("sl-selma-reflect", Scheme::Sl, Selma, Reflect, 1.0),
+    Case::exact("", Scheme::Sl, Selma, Reflect, 1.0).rt0_exact("sl-selma-reflect-rt0"),
     Case::exact(
         "quick-gridded-reflect",
         Scheme::Quick,
@@ -132,8 +152,12 @@ const CASES: [Case; 7] = [
         method: ObstacleMethod::Notes,
         rule: Reflect,
         alpha: 1.0,
+        rt0_exact: false,
     },
 ];
+
+/// The case whose peak density the others' are measured against.
+const GRIDDED: &str = "sl-gridded-reflect";
 
 fn run(ctx: &Context) -> Result<()> {
     let base = SlabBoxConfig::default();
@@ -153,6 +177,16 @@ fn run(ctx: &Context) -> Result<()> {
                 frames,
                 advection: c.advection,
                 density: c.density,
+                interpolant: if c.rt0_exact {
+                    Interpolant::Rt0
+                } else {
+                    Interpolant::Trilinear
+                },
+                backtrace: if c.rt0_exact {
+                    Backtrace::Exact
+                } else {
+                    Backtrace::Rk2
+                },
                 ..base.clone().solver
             },
             obstacles: c.method,
@@ -177,9 +211,10 @@ fn run(ctx: &Context) -> Result<()> {
     crate::run::progress::plan(&stages);
     io::create_output_dir(&ctx.out)?;
     let mut data = String::from(
-        "case,res,frames,alpha,max_obstacle_fraction,max_closed_flux,\
+        "case,res,frames,alpha,interpolant,backtrace,max_obstacle_fraction,max_closed_flux,\
          mean_div_fluid_rms,final_retained,min_retained,final_mass,injected_mass,\
-         isolated_blob_mass,mean_cg_iterations,mean_face_cg_iterations,wall_seconds\n",
+         density_max,density_max_over_gridded,isolated_blob_mass,mean_cg_iterations,\
+         mean_face_cg_iterations,wall_seconds\n",
     );
     let (mut rows, mut render_rows) = (vec![], vec![]);
     let mut plot = Plot::new(
@@ -188,9 +223,24 @@ fn run(ctx: &Context) -> Result<()> {
         "retained",
     )
     .legend(LegendPosition::LowerRight);
+    let mut done = vec![];
     for (case, config) in CASES.iter().zip(&configs) {
-        let done = run_case(ctx, case, config, &saved)?;
-        data.push_str(&done.data);
+        done.push(run_case(ctx, case, config, &saved)?);
+    }
+    let gridded_max = CASES
+        .iter()
+        .zip(&done)
+        .find(|(c, _)| c.name == GRIDDED)
+        .map(|(_, d)| d.density_max)
+        .expect("06-6 runs the gridded reflect case");
+    for (case, done) in CASES.iter().zip(done) {
+        data.push_str(&format!(
+            "{},{:.4},{:.4},{}\n",
+            done.data,
+            done.density_max,
+            done.density_max / gridded_max,
+            done.tail
+        ));
         plot = plot.series(Series::line(case.name, done.retained));
         rows.push(done.slices);
         render_rows.push(done.renders);
@@ -221,10 +271,14 @@ fn run(ctx: &Context) -> Result<()> {
     Ok(())
 }
 
-/// What one case's run gives the figures: its row of `data.csv`, its
-/// retained share by step, and its row of slices and of renders.
+/// What one case's run gives the figures: its row of `data.csv` (the
+/// columns before and after the peak's, which needs the gridded case's),
+/// its peak density, its retained share by step, and its row of slices and
+/// of renders.
 struct CaseRun {
     data: String,
+    density_max: f64,
+    tail: String,
     retained: Vec<(f64, f64)>,
     slices: Vec<RgbImage>,
     renders: Vec<RgbImage>,
@@ -263,9 +317,11 @@ fn run_case(
     let last = *saved.last().expect("the notes' frames are saved");
     let final_density = read_density(&config.solver.domain()?, &out, last)?;
     let data = format!(
-        "{},{res},{frames},{},{:.6e},{:.6e},{:.6e},{:.4},{:.4},{:.6},{:.6},{:.4},{:.1},{:.1},{:.2}\n",
+        "{},{res},{frames},{},{},{},{:.6e},{:.6e},{:.6e},{:.4},{:.4},{:.6},{:.6}",
         case.name,
         config.boundary_options().retained(),
+        config.solver.interpolant,
+        config.solver.backtrace.name(),
         m.max("obstacle_fraction")?,
         m.max("closed_flux_max")?,
         m.mean("div_fluid_rms")?,
@@ -273,6 +329,9 @@ fn run_case(
         lowest,
         m.last("density_mass")?,
         m.last("density_injected")?,
+    );
+    let tail = format!(
+        "{:.4},{:.1},{:.1},{:.2}",
         isolated_mass_share(&final_density, BLOB_LEVEL, BLOB_CELLS),
         m.mean("cg_iterations")?,
         m.mean("face_cg_iterations")?,
@@ -281,6 +340,8 @@ fn run_case(
     let (slices, renders) = figure_row(config, &out, saved)?;
     Ok(CaseRun {
         data,
+        density_max: m.max("density_max")?,
+        tail,
         retained: steps.into_iter().zip(retained).collect(),
         slices,
         renders,

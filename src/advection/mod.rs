@@ -79,6 +79,16 @@ impl Backtrace {
         Backtrace::Exact,
     ];
 
+    /// The name on the command line and in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            Backtrace::Euler => "euler",
+            Backtrace::Rk2 => "rk2",
+            Backtrace::Rk3 => "rk3",
+            Backtrace::Exact => "exact",
+        }
+    }
+
     /// The order in Δt of a time integrator's path error; `None` for
     /// [`Backtrace::Exact`], whose path through the RT0 velocity has none.
     pub fn order(self) -> Option<u32> {
