@@ -20,8 +20,8 @@
 //!
 //! The notes do not give fig 6.6's grid; `--full` uses 50³, the resolution of
 //! their other chapter-6 runs, and 200 frames. The default run is reduced to
-//! **40³** (same 200 frames and physical setup): about 4 minutes on a
-//! 2-core machine (8 with builds running), most of it the three gridless rows;
+//! **40³** (same 200 frames and physical setup): about 6 minutes on a
+//! 2-core machine (15 with builds running), most of it the three gridless rows;
 //! `--smoke` is 26³ and 12 frames.
 //!
 //! Run: `smokelab experiment 06-6` (`--full`, `--smoke`).
@@ -78,7 +78,7 @@ pub const EXPERIMENT: Experiment = Experiment {
     folder: "06-6",
     reproduces: "fig 6.6",
     title: "buoyant gas in a box around a slab; gridless as the notes ran it, every mode, exact and notes' obstacles",
-    cost: "~4 min",
+    cost: "~6 min",
     run,
 };
 
