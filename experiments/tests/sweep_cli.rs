@@ -1,7 +1,8 @@
 //! `smokelab sweep`: the sweep file expanded into points (the Cartesian
 //! product of the axes, last fastest), each point the ordinary run of its
 //! keys (its volumes equal a direct `smokelab run`'s), `run-point`,
-//! `status`, `resubmit` and `gather`, the Slurm script, and bad sweep files
+//! `status`, `resubmit` and `gather` (its table and its contact sheet of the
+//! points' previews), the Slurm script, and bad sweep files
 //! refused with one line and exit 2 before anything is written. The real
 //! Slurm is exercised by `.ci/slurm`.
 
@@ -30,6 +31,33 @@ fn file<'a>(sb: &Sandbox, name: &'a str, text: &str) -> &'a str {
 /// `DIR/sweep.json`.
 fn index(dir: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(dir.join("sweep.json")).unwrap()).unwrap()
+}
+
+/// The size of the largest last preview among the `points` of the sweep in
+/// `dir` that have one: the size of each panel of its `sweep.png`.
+fn panel_size(dir: &Path, points: &[serde_json::Value]) -> (u32, u32) {
+    let sizes: Vec<(u32, u32)> = points
+        .iter()
+        .filter_map(|p| {
+            let folder = dir.join(p["folder"].as_str().unwrap());
+            let last = std::fs::read_dir(folder)
+                .ok()?
+                .map(|e| e.unwrap().path())
+                .filter(|p| p.to_string_lossy().contains("preview_"))
+                .max()?;
+            Some(image::image_dimensions(last).unwrap())
+        })
+        .collect();
+    let w = sizes.iter().map(|s| s.0).max().unwrap();
+    let h = sizes.iter().map(|s| s.1).max().unwrap();
+    (w, h)
+}
+
+/// `DIR/figures.json`'s caption of `sweep.png`.
+fn sheet_caption(dir: &Path) -> String {
+    let captions: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("figures.json")).unwrap()).unwrap();
+    captions["sweep.png"].as_str().unwrap().to_string()
 }
 
 /// Run `args`, check exit 2 with one line naming every needle, and that
@@ -99,7 +127,37 @@ fn the_first_example_runs_every_point_as_the_ordinary_run_and_gathers_one_table(
         "{status}"
     );
 
-    sb.ok(&["sweep", "gather", "sw"]);
+    let o = sb.ok(&["sweep", "gather", "sw"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("wrote sw/sweep.png"), "{stdout}");
+    assert!(!stdout.contains("grey panel"), "{stdout}");
+    // The contact sheet: a 2 × 2 grid of the previews, all scaled to the
+    // largest, with the headings in margins left and above.
+    let sheet = image::open(sb.join("sw/sweep.png")).unwrap().to_rgb8();
+    let (w, h) = panel_size(&sb.join("sw"), points);
+    assert!(
+        sheet.width() > 2 * w + 6 && sheet.width() < 3 * w,
+        "{}×{} for panels {w}×{h}",
+        sheet.width(),
+        sheet.height()
+    );
+    assert!(
+        sheet.height() > 2 * h + 6 && sheet.height() < 3 * h,
+        "{}×{} for panels {w}×{h}",
+        sheet.width(),
+        sheet.height()
+    );
+    assert_eq!(
+        sheet_caption(&sb.join("sw")),
+        "hot-cold sweep sw. Rows, top to bottom: res = 12; res = 16. \
+         Columns, left to right: density = gridded; density = gridless."
+    );
+    // The wall time against res, a line per density.
+    let svg = std::fs::read_to_string(sb.join("sw/sweep_wall_seconds.svg")).unwrap();
+    for name in ["density = gridded", "density = gridless", "wall time (s)"] {
+        assert!(svg.contains(name), "{name}");
+    }
+    assert!(sb.join("sw/sweep_wall_seconds.png").is_file());
     let rows = table(&sb.join("sw/sweep.csv"));
     let header = std::fs::read_to_string(sb.join("sw/sweep.csv")).unwrap();
     assert!(
@@ -230,6 +288,54 @@ fn the_slurm_script_maps_each_array_task_to_a_point_and_takes_the_options() {
         .unwrap()
         .iter()
         .all(|p| p["state"] == "complete"));
+}
+
+/// An unfinished sweep's contact sheet keeps its grid: a grey panel for
+/// each point not complete, named on the terminal; with no point complete
+/// there is no figure, and a line says so.
+#[test]
+fn gather_shows_unfinished_points_as_grey_panels() {
+    let sb = Sandbox::new();
+    let f = file(&sb, "sweep.toml", FIRST_EXAMPLE);
+    sb.ok(&["sweep", f, "--out", "sw", "--slurm", "--dry-run"]);
+    let o = sb.ok(&["sweep", "gather", "sw"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("wrote no sweep.png: no point has an image to show"),
+        "{stdout}"
+    );
+    assert!(!sb.join("sw/sweep.png").exists());
+
+    sb.ok(&["sweep", "run-point", "sw", "1"]);
+    let o = sb.ok(&["sweep", "gather", "sw"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for (i, at) in [
+        (0, "res=12, density=gridded"),
+        (2, "res=16, density=gridded"),
+    ] {
+        assert!(
+            stdout.contains(&format!(
+                "sweep.png: point {i} ({at}) is a grey panel: it is pending"
+            )),
+            "{stdout}"
+        );
+    }
+    assert!(!stdout.contains("point 1 ("), "{stdout}");
+    assert!(stdout.contains("wrote sw/sweep.png"), "{stdout}");
+    let plan = index(&sb.join("sw"));
+    let points = plan["points"].as_array().unwrap();
+    let (w, h) = panel_size(&sb.join("sw"), points);
+    let sheet = image::open(sb.join("sw/sweep.png")).unwrap().to_rgb8();
+    // The panels fill the bottom right; the headings the margins.
+    let (left, top) = (sheet.width() - 2 * w - 6, sheet.height() - 2 * h - 6);
+    let grey = |row: u32, col: u32| {
+        let (x0, y0) = (left + col * (w + 6), top + row * (h + 6));
+        (y0..y0 + h)
+            .flat_map(|y| (x0..x0 + w).map(move |x| (x, y)))
+            .all(|(x, y)| *sheet.get_pixel(x, y) == image::Rgb([128, 128, 128]))
+    };
+    assert!(grey(0, 0) && grey(1, 0) && grey(1, 1));
+    assert!(!grey(0, 1), "point 1's preview is missing");
 }
 
 #[test]

@@ -3,7 +3,8 @@
 //! `sweep.csv`, one row per point: its axis values, its state, then the
 //! summary its run recorded (the manifest's wall time and peak memory, and
 //! `metrics.csv`'s last row, the state the run ended in, without the
-//! per-stage timing columns).
+//! per-stage timing columns); and beside it the figures across the sweep
+//! ([`super::figure`]).
 
 use std::path::Path;
 
@@ -128,7 +129,9 @@ fn summary(folder: &Path) -> Result<Vec<(String, String)>> {
 
 /// `smokelab sweep gather DIR`: write `DIR/sweep.csv`, a row per point
 /// (incomplete ones with their state and no summary), columns in the
-/// order the points first name them.
+/// order the points first name them, then `DIR/sweep.png`
+/// ([`super::figure::contact_sheet`]) and the wall-time plot
+/// ([`super::figure::wall_time_plot`]).
 pub fn gather(dir: &Path) -> Result<()> {
     let mut plan = Plan::read(dir)?;
     refresh(dir, &mut plan)?;
@@ -184,5 +187,13 @@ pub fn gather(dir: &Path) -> Result<()> {
             dir.display()
         );
     }
-    Ok(())
+    super::figure::contact_sheet(dir, &plan)?;
+    let wall: Vec<Option<f64>> = rows
+        .iter()
+        .map(|cells| {
+            let (_, seconds) = cells.iter().find(|(name, _)| name == "wall_seconds")?;
+            seconds.parse().ok()
+        })
+        .collect();
+    super::figure::wall_time_plot(dir, &plan, &wall)
 }

@@ -6,9 +6,11 @@
 //! `smokelab sweep run-point DIR INDEX` ([`point`]), the one entry point of
 //! every executor: child processes here ([`local`]) or the tasks of a
 //! Slurm array ([`slurm`]; a Kubernetes Indexed Job runs the same command).
-//! `sweep status`, `sweep resubmit` and `sweep gather` ([`gather`]) read the
-//! points' folders, so they work whichever executor ran them.
+//! `sweep status`, `sweep resubmit` and `sweep gather` ([`gather`], with
+//! its figure across the sweep, [`figure`]) read the points' folders, so
+//! they work whichever executor ran them.
 
+pub mod figure;
 pub mod gather;
 pub mod layout;
 pub mod local;
@@ -62,7 +64,7 @@ pub enum SweepAction {
         #[command(flatten)]
         executor: Executor,
     },
-    /// Write DIR/sweep.csv: a row per point, its axis values, then its run's summary.
+    /// Write DIR/sweep.csv: a row per point, its axis values, then its run's summary; and DIR/sweep.png: each point's last preview (an experiment's main figure) in a grid, a column per value of the last axis.
     Gather {
         /// The sweep's folder.
         dir: PathBuf,
