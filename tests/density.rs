@@ -665,9 +665,8 @@ fn centres(d: &Domain) -> Vec<Vec3> {
 
 /// The cell averages of `f` on the cells of `d` as the cache of a gridless
 /// or SELMA density holds them: the mean of its eight sub-cell points
-/// (offsets ±¼ cell, summed in the offsets' order, x fastest) — of those
-/// outside `walls`, the mean over the cell's fluid part — and zero in the
-/// cells whose centres lie inside `walls`.
+/// (offsets ±¼ cell, summed in the offsets' order, x fastest), and zero in
+/// the dry cells of `walls` ([`WallStop::dry_world`]).
 fn cell_means(f: &dyn ScalarField, d: &Domain, walls: Option<&WallStop>) -> Vec<f32> {
     let subs: Vec<Vec3> = (0..8)
         .map(|s: u32| {
@@ -683,25 +682,15 @@ fn cell_means(f: &dyn ScalarField, d: &Domain, walls: Option<&WallStop>) -> Vec<
     let values = eval(f, &points);
     (0..c.len())
         .map(|m| match walls {
-            Some(w) if w.inside_world(c[m]) => 0.0,
-            None => (0..8).map(|s| values[s * c.len() + m]).sum::<f32>() * 0.125,
-            Some(w) => {
-                let wet: Vec<f32> = (0..8)
-                    .filter(|s| !w.inside_world(points[s * c.len() + m]))
-                    .map(|s| values[s * c.len() + m])
-                    .collect();
-                match wet.len() {
-                    0 => 0.0,
-                    n => wet.iter().sum::<f32>() / n as f32,
-                }
-            }
+            Some(w) if w.dry_world(c[m]) => 0.0,
+            _ => (0..8).map(|s| values[s * c.len() + m]).sum::<f32>() * 0.125,
         })
         .collect()
 }
 
 /// Each gridless model's cells are, to the bit, its own field's walks
-/// ([`GridlessField`]'s `eval_batch`): the walk from the centre (zero inside
-/// `walls`), or, in the cells whose 3×3×3 block of centre values spans more
+/// ([`GridlessField`]'s `eval_batch`): the walk from the centre (zero in the
+/// dry cells of `walls`), or, in the cells whose 3×3×3 block of centre values spans more
 /// than `REFINE_LEVEL` of their maximum, the mean of the walks from the
 /// sub-cell points ([`cell_means`]) — and some cells are such.
 fn assert_own_walk(models: &[(&DensityModel, Option<&WallStop>)], case: &str) {

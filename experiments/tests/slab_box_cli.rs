@@ -122,7 +122,7 @@ fn experiment_06_6_smoke_writes_figure_and_data() {
         assert!(e.join(f).is_file(), "missing {f}");
     }
     let data = std::fs::read_to_string(e.join("data.csv")).unwrap();
-    assert_eq!(data.lines().count(), 8, "{data}");
+    assert_eq!(data.lines().count(), 10, "{data}");
 }
 
 /// `run slab-box --density` with every mode that is not held on the grid
