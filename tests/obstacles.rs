@@ -262,7 +262,7 @@ fn slab_box_gridless_with_exact_obstacles() {
 /// run's instead of beading. Measured at 32³ (QUICK velocity): the field's
 /// integral 99.9 % at 4× (99.6 % at 5×), the cells' cache 91.7 % (layers
 /// under the slab thinner than a cell between its sample points), the peak
-/// 2.11 against the gridded 2.04; the midpoint rule on RT0 keeps 97 %.
+/// 2.19 against the gridded 2.06; the midpoint rule on RT0 keeps 97 %.
 #[test]
 fn slab_box_gridless_exact_path_keeps_its_gas() {
     let steps = 80;

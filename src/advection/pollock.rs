@@ -95,11 +95,8 @@ pub(crate) fn departure(vel: FaceSampler, g: Vec3, dt_cells: f32) -> Vec3 {
         // The backward velocity v = −u at the cell's faces, and at s.
         let mut lo = DVec3::ZERO;
         let mut hi = DVec3::ZERO;
+        let cell: [usize; 3] = std::array::from_fn(|b| c[b].rem_euclid(cells[b] as i64) as usize);
         for a in 0..3 {
-            let mut cell = [0usize; 3];
-            for b in 0..3 {
-                cell[b] = c[b].rem_euclid(cells[b] as i64) as usize;
-            }
             let d = dims[a];
             let at = |p: [usize; 3]| (p[2] * d[1] + p[1]) * d[0] + p[0];
             let mut up = cell;

@@ -59,7 +59,7 @@
 //! ([`WallStop::dry_world`]). Measured at slab-box 32³ (QUICK velocity, 80
 //! steps; the field's integral at 4× the grid over the gas injected): the
 //! exact path keeps 99.9 %, the midpoint rule on RT0 97 %, and the peak is
-//! 2.11 against the gridded 2.04 (`tests/obstacles.rs`). The cells' cache
+//! 2.19 against the gridded 2.06 (`tests/obstacles.rs`). The cells' cache
 //! sums to less (91.7 %): the gas pressed against the slab's underside
 //! forms layers thinner than a cell, between the cache's sample points.
 //!
