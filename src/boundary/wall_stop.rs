@@ -67,12 +67,6 @@ impl WallStop {
         self.level_at(g) >= 0.0
     }
 
-    /// Whether world point `p` lies inside an obstacle (`O ≥ 0`).
-    #[inline]
-    pub fn inside_world(&self, p: Vec3) -> bool {
-        self.inside(self.level.domain().grid_coords(p))
-    }
-
     /// Whether world point `p` lies in a dry cell: the cell holding it
     /// (wrapped periodically) is not wet ([`OpenFaces::wet`]), the cells
     /// where the pressure solve and the gridded densities hold no fluid.
