@@ -14,12 +14,7 @@ use crate::run::output_dir;
 use crate::run::{self, Checkpointing};
 use smokelab::error::InputError;
 use smokelab::io;
-use smokelab::scenario::hot_cold::HotColdConfig;
-use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
-use smokelab::scenario::slab_box::SlabBoxConfig;
-use smokelab::scenario::taylor_green::TaylorGreenConfig;
-use smokelab::scenario::taylor_green_3d::TaylorGreen3dConfig;
-use smokelab::scenario::{config, Scenario, ScenarioKind};
+use smokelab::scenario::{config, Scenario};
 
 /// `smokelab run --resume RUN_DIR`: check everything (the checkpoint whole,
 /// of this version, matching the run's manifest and its metrics rows), then
@@ -77,14 +72,9 @@ pub(crate) fn resume_run(args: &RunArgs, dir: &std::path::Path) -> Result<()> {
             io::manifest::BUILD_COMMIT
         );
     }
-    match checkpoint.run().scenario {
-        ScenarioKind::HotCold => resume_config::<HotColdConfig>(args, dir, checkpoint),
-        ScenarioKind::SlabBox => resume_config::<SlabBoxConfig>(args, dir, checkpoint),
-        ScenarioKind::Deformation => resume_config::<DeformationConfig>(args, dir, checkpoint),
-        ScenarioKind::Zalesak => resume_config::<ZalesakConfig>(args, dir, checkpoint),
-        ScenarioKind::TaylorGreen => resume_config::<TaylorGreenConfig>(args, dir, checkpoint),
-        ScenarioKind::TaylorGreen3d => resume_config::<TaylorGreen3dConfig>(args, dir, checkpoint),
-    }
+    smokelab::with_scenario!(checkpoint.run().scenario, C => {
+        resume_config::<C>(args, dir, checkpoint)
+    })
 }
 
 /// [`resume_run`] for the checkpoint's scenario `C`.

@@ -18,11 +18,6 @@ use smokelab::density::DensityMode;
 use smokelab::error::InputError;
 use smokelab::io;
 use smokelab::render::camera::parse_image_size;
-use smokelab::scenario::hot_cold::HotColdConfig;
-use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
-use smokelab::scenario::slab_box::SlabBoxConfig;
-use smokelab::scenario::taylor_green::TaylorGreenConfig;
-use smokelab::scenario::taylor_green_3d::TaylorGreen3dConfig;
 use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig, SolverFlags};
 use smokelab::simulation::Simulation;
 
@@ -280,33 +275,19 @@ impl RunArgs {
     }
 }
 
-/// Every scenario's name and keys, for naming the owner of a key another
-/// scenario does not have.
+/// Every scenario's name and keys, in [`ScenarioKind::ALL`]'s order, for
+/// naming the owner of a key another scenario does not have.
 pub fn scenario_keys() -> Vec<(&'static str, Vec<String>)> {
-    vec![
-        (HotColdConfig::NAME, config::keys::<HotColdConfig>()),
-        (SlabBoxConfig::NAME, config::keys::<SlabBoxConfig>()),
-        (DeformationConfig::NAME, config::keys::<DeformationConfig>()),
-        (ZalesakConfig::NAME, config::keys::<ZalesakConfig>()),
-        (TaylorGreenConfig::NAME, config::keys::<TaylorGreenConfig>()),
-        (
-            TaylorGreen3dConfig::NAME,
-            config::keys::<TaylorGreen3dConfig>(),
-        ),
-    ]
+    ScenarioKind::ALL
+        .into_iter()
+        .map(|kind| smokelab::with_scenario!(kind, C => (C::NAME, config::keys::<C>())))
+        .collect()
 }
 
-/// `smokelab run` (without `--resume`): the scenario registry, one line
-/// per scenario.
+/// `smokelab run` (without `--resume`): the scenario's configuration
+/// resolved and run (the dispatch is [`smokelab::with_scenario!`]).
 pub(super) fn run_scenario(args: &RunArgs) -> Result<()> {
-    match args.scenario {
-        ScenarioKind::HotCold => run_config(args, &args.resolve::<HotColdConfig>()?),
-        ScenarioKind::SlabBox => run_config(args, &args.resolve::<SlabBoxConfig>()?),
-        ScenarioKind::Deformation => run_config(args, &args.resolve::<DeformationConfig>()?),
-        ScenarioKind::Zalesak => run_config(args, &args.resolve::<ZalesakConfig>()?),
-        ScenarioKind::TaylorGreen => run_config(args, &args.resolve::<TaylorGreenConfig>()?),
-        ScenarioKind::TaylorGreen3d => run_config(args, &args.resolve::<TaylorGreen3dConfig>()?),
-    }
+    smokelab::with_scenario!(args.scenario, C => run_config(args, &args.resolve::<C>()?))
 }
 
 /// `--print-config`: every key with its value as TOML, then the keys that

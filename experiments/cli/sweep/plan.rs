@@ -15,11 +15,6 @@ use clap::ValueEnum as _;
 use serde::{Deserialize, Serialize};
 use smokelab::error::InputError;
 use smokelab::io;
-use smokelab::scenario::hot_cold::HotColdConfig;
-use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
-use smokelab::scenario::slab_box::SlabBoxConfig;
-use smokelab::scenario::taylor_green::TaylorGreenConfig;
-use smokelab::scenario::taylor_green_3d::TaylorGreen3dConfig;
 use smokelab::scenario::{Scenario, ScenarioKind};
 
 use super::layout::INDEX;
@@ -426,14 +421,9 @@ fn scenario_points(
 /// The configuration of the run `args` describes, resolved and checked as
 /// `run` checks it before starting.
 fn check(args: &RunArgs) -> Result<(), InputError> {
-    let solver = match args.scenario {
-        ScenarioKind::HotCold => args.resolve::<HotColdConfig>()?.solver().clone(),
-        ScenarioKind::SlabBox => args.resolve::<SlabBoxConfig>()?.solver().clone(),
-        ScenarioKind::Deformation => args.resolve::<DeformationConfig>()?.solver().clone(),
-        ScenarioKind::Zalesak => args.resolve::<ZalesakConfig>()?.solver().clone(),
-        ScenarioKind::TaylorGreen => args.resolve::<TaylorGreenConfig>()?.solver().clone(),
-        ScenarioKind::TaylorGreen3d => args.resolve::<TaylorGreen3dConfig>()?.solver().clone(),
-    };
+    let solver = smokelab::with_scenario!(args.scenario, C => {
+        args.resolve::<C>()?.solver().clone()
+    });
     args.check_selma_remap(&solver)
 }
 

@@ -30,11 +30,6 @@ use smokelab::grid::ScalarGrid;
 use smokelab::render::camera::check_image_size;
 use smokelab::render::output::{preview, Display};
 use smokelab::render::{look, render, RenderSettings};
-use smokelab::scenario::hot_cold::HotColdConfig;
-use smokelab::scenario::prescribed::{DeformationConfig, ZalesakConfig};
-use smokelab::scenario::slab_box::SlabBoxConfig;
-use smokelab::scenario::taylor_green::TaylorGreenConfig;
-use smokelab::scenario::taylor_green_3d::TaylorGreen3dConfig;
 use smokelab::scenario::{config, Scenario, ScenarioKind, SolverConfig};
 use smokelab::simulation::{Simulation, StepError};
 use smokelab_app::cli::process::{default_run_dir, init_threads};
@@ -43,38 +38,6 @@ use smokelab_app::cli::{self, Cli, Command};
 use smokelab_app::run::checkpoint::{self, Checkpoint, RunRecord};
 use smokelab_app::run::frames::simulation_scene;
 use smokelab_app::run::output_dir;
-
-/// `$body` with the type `$C` bound to the configuration of scenario `$kind`.
-macro_rules! with_scenario {
-    ($kind:expr, $C:ident => $body:expr) => {
-        match $kind {
-            ScenarioKind::HotCold => {
-                type $C = HotColdConfig;
-                $body
-            }
-            ScenarioKind::SlabBox => {
-                type $C = SlabBoxConfig;
-                $body
-            }
-            ScenarioKind::Deformation => {
-                type $C = DeformationConfig;
-                $body
-            }
-            ScenarioKind::Zalesak => {
-                type $C = ZalesakConfig;
-                $body
-            }
-            ScenarioKind::TaylorGreen => {
-                type $C = TaylorGreenConfig;
-                $body
-            }
-            ScenarioKind::TaylorGreen3d => {
-                type $C = TaylorGreen3dConfig;
-                $body
-            }
-        }
-    };
-}
 
 /// Bad input as Python sees it: `ValueError` with the command line's message.
 fn value_error(e: impl std::fmt::Display) -> PyErr {
@@ -276,7 +239,7 @@ impl PySimulation {
         check_simd()?;
         let args = run_args(scenario_kind(scenario)?, set_pairs(keys)?);
         let inner = py
-            .detach(|| with_scenario!(args.scenario, C => build::<C>(&args)))
+            .detach(|| smokelab::with_scenario!(args.scenario, C => build::<C>(&args)))
             .map_err(value_error)?;
         Ok(Self { inner })
     }
@@ -298,7 +261,7 @@ impl PySimulation {
                     ))
                 })?;
                 let layers = [("checkpoint".to_string(), table)];
-                with_scenario!(record.scenario, C => {
+                smokelab::with_scenario!(record.scenario, C => {
                     let config: C = config::resolve(&layers, &scenario_keys())?;
                     init_threads(config.solver().threads)?;
                     let mut sim = config.build()?;
@@ -575,7 +538,7 @@ type KeyDoc = (String, Option<String>, Option<String>);
 #[pyo3(signature = (scenario = "hot-cold"))]
 fn keys(scenario: &str) -> PyResult<Vec<KeyDoc>> {
     let kind = scenario_kind(scenario)?;
-    let (names, defaults) = with_scenario!(kind, C => (
+    let (names, defaults) = smokelab::with_scenario!(kind, C => (
         config::keys::<C>(),
         toml::Table::try_from(C::default()).expect("a configuration is a table"),
     ));
