@@ -95,4 +95,5 @@ def main(args):
     print("REPORT " + json.dumps(report))
 
 
-main(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])
+if __name__ == "__main__":
+    main(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])
