@@ -51,7 +51,15 @@
 //!   fused advection of 5 fields (Euler backtrace) plus three pyFFTW f32
 //!   pairs, compared with smokelab's step with the same Euler backtrace
 //!   (also measured, 2 threads). Without the flag the peer columns are
-//!   absent and the manifest says so.
+//!   absent and the manifest says so;
+//! - **the Python module** (when the `--peers` Python also imports
+//!   smokelab's solver, `pip install ./python`): hot/cold stepped from a
+//!   Python loop, one `sim.step()` at a time, the median of the same
+//!   warm-up and timed steps, run before and after smokelab's rounds as
+//!   the peers are, at 32³…128³ (each process sets its run up anew, a
+//!   minute at 256³); `python_step_ms` and `python_over_step` (÷ the
+//!   2-thread RK2 step) in `data.csv` and the table. Absent otherwise,
+//!   the manifest saying why.
 //!
 //! Every measurement of one step round — 2-thread RK2, 1-thread RK2,
 //! 2-thread Euler, FFT pairs, bandwidth pass — is interleaved, so a busy
@@ -83,6 +91,7 @@ use anyhow::{bail, Context as _, Result};
 use rayon::prelude::*;
 
 use crate::experiment::kit::{Context, Experiment, Size};
+use crate::experiment::shared::python_step::PythonStep;
 use crate::figures::plot::{Annotation, LegendPosition, Plot, Series, Style};
 use crate::figures::table::write_columns;
 use crate::run::{FineProbes, StepMeasures};
@@ -109,6 +118,9 @@ pub const EXPERIMENT: Experiment = Experiment {
     run,
 };
 
+/// The largest resolution the Python module's step is measured at.
+const PYTHON_MAX_RES: usize = 128;
+
 /// Resolutions, warm-up steps and timed steps of a run size.
 fn plan(size: Size) -> (Vec<usize>, usize, usize) {
     size.pick(
@@ -127,6 +139,10 @@ fn plan(size: Size) -> (Vec<usize>, usize, usize) {
 fn run(ctx: &Context) -> Result<()> {
     let start = Instant::now();
     let peers = ctx.peers.as_deref().map(Peers::new).transpose()?;
+    let python = match ctx.peers.as_deref() {
+        Some(p) => PythonStep::probe(p),
+        None => Err("absent: run with --peers PYTHON, a Python that imports smokelab".into()),
+    };
     let (sizes, warm, steps) = plan(ctx.size);
     let load_before = loadavg();
     let pools = [1usize, 2].map(|n| {
@@ -147,7 +163,14 @@ fn run(ctx: &Context) -> Result<()> {
     for &res in &sizes {
         // Each size's peers right before and right after smokelab's.
         let before = peers.as_ref().map(|p| p.measure(res)).transpose()?;
-        let (row, w) = measure(res, warm, steps, &pools)?;
+        let python_here = python.as_ref().ok().filter(|_| res <= PYTHON_MAX_RES);
+        let python_before = python_here
+            .map(|p| p.median_ms(res, warm, steps))
+            .transpose()?;
+        let (mut row, w) = measure(res, warm, steps, &pools)?;
+        if let (Some(p), Some(before)) = (python_here, python_before) {
+            row.python_ms = Some([before, p.median_ms(res, warm, steps)?]);
+        }
         rows.push(row);
         widths.extend(w);
         if let (Some(p), Some(r), Some(before)) = (&peers, &mut peer_rows, before) {
@@ -174,11 +197,16 @@ fn run(ctx: &Context) -> Result<()> {
             .map(|r| ((r.cells as f64).ln(), r.step_ms.ln()))
             .collect::<Vec<_>>(),
     );
-    write_data(&ctx.out, &rows, peer_rows.as_deref())?;
+    write_data(&ctx.out, &rows, peer_rows.as_deref(), python.is_ok())?;
     let widths = WidthRow::with_peers(widths, peer_rows.as_deref());
     crate::figures::table::write_rows(&ctx.out.join("widths.csv"), &widths)?;
     plot(&ctx.out, &rows, peer_rows.as_deref(), fit.map(|f| f.slope))?;
-    let mut md = table(&rows, peer_rows.as_deref(), fit.map(|f| f.slope));
+    let mut md = table(
+        &rows,
+        peer_rows.as_deref(),
+        python.is_ok(),
+        fit.map(|f| f.slope),
+    );
     md.push_str(&widths_table(&widths));
     md.push_str(&precision_table(&precision));
     io::write_atomic(&ctx.out.join("table.md"), |w| {
@@ -217,6 +245,15 @@ fn run(ctx: &Context) -> Result<()> {
                 })).collect::<Vec<_>>(),
             }),
             _ => serde_json::json!("absent: run with --peers PYTHON"),
+        },
+        "python_module": match &python {
+            Ok(p) => serde_json::json!({
+                "python": p.python,
+                "loop": "smokelab.Simulation(\"hot-cold\", res=N); sim.step(warm); then sim.step() timed one at a time by time.perf_counter, the median; run before and after smokelab's rounds, the mean of the two",
+                "resolutions": sizes.iter().filter(|&&r| r <= PYTHON_MAX_RES).collect::<Vec<_>>(),
+                "runs_ms": rows.iter().filter_map(|r| r.python_ms.map(|m| serde_json::json!({"res": r.res, "before": m[0], "after": m[1]}))).collect::<Vec<_>>(),
+            }),
+            Err(why) => serde_json::json!(why),
         },
     });
     let config = config(*sizes.last().expect("at least one resolution"));
@@ -261,6 +298,8 @@ struct Row {
     metrics_ms: f64,
     fine_ms: f64,
     bitwise_equal: bool,
+    /// The Python loop's median step, before and after the rounds.
+    python_ms: Option<[f64; 2]>,
 }
 
 impl Row {
@@ -275,6 +314,11 @@ impl Row {
 
     fn speedup(&self) -> f64 {
         self.step_1t_ms / self.step_ms
+    }
+
+    /// The Python loop's step (mean of its two runs), NaN where not measured.
+    fn python_step_ms(&self) -> f64 {
+        self.python_ms.map_or(f64::NAN, |[a, b]| 0.5 * (a + b))
     }
 
     /// The diagnostics ÷ step, were they taken every step.
@@ -410,6 +454,7 @@ fn measure(
         metrics_ms: metrics,
         fine_ms: fine,
         bitwise_equal,
+        python_ms: None,
     };
     Ok((row, widths))
 }
@@ -808,7 +853,7 @@ impl Peers {
 }
 
 /// Write `data.csv`: one row per resolution, the peer columns only with peers.
-fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()> {
+fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>, python: bool) -> Result<()> {
     let mut cols = vec![
         "res",
         "cells",
@@ -844,6 +889,9 @@ fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()>
             "peer_ms",
             "peer_over_step_euler",
         ]);
+    }
+    if python {
+        cols.extend(["python_step_ms", "python_over_step"]);
     }
     let table: Vec<Vec<f64>> = rows
         .iter()
@@ -884,6 +932,9 @@ fn write_data(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>) -> Result<()>
                     p.composite_ms(),
                     p.composite_ms() / r.step_euler_ms,
                 ]);
+            }
+            if python {
+                v.extend([r.python_step_ms(), r.python_step_ms() / r.step_ms]);
             }
             v
         })
@@ -981,16 +1032,22 @@ fn plot(out: &Path, rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f6
 }
 
 /// The Markdown table for the README and the paper.
-fn table(rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f64>) -> String {
+fn table(rows: &[Row], peers: Option<&[PeerRow]>, python: bool, exponent: Option<f64>) -> String {
     let mut s = String::from(
         "| res | step ms | Mcells/s | 1 thread ms | speed-up | advect | force | project | floor ms | step ÷ floor | diagnostics ÷ step | default metrics ÷ step |",
     );
     if peers.is_some() {
         s.push_str(" Euler step ms | peer ms | peer ÷ Euler step |");
     }
+    if python {
+        s.push_str(" Python step ms | Python ÷ step |");
+    }
     s.push_str("\n|---|---|---|---|---|---|---|---|---|---|---|---|");
     if peers.is_some() {
         s.push_str("---|---|---|");
+    }
+    if python {
+        s.push_str("---|---|");
     }
     s.push('\n');
     for (i, r) in rows.iter().enumerate() {
@@ -1016,6 +1073,16 @@ fn table(rows: &[Row], peers: Option<&[PeerRow]>, exponent: Option<f64>) -> Stri
                 p.composite_ms(),
                 p.composite_ms() / r.step_euler_ms
             ));
+        }
+        if python {
+            s.push_str(&match r.python_ms {
+                Some(_) => format!(
+                    " {:.1} | {:.3} |",
+                    r.python_step_ms(),
+                    r.python_step_ms() / r.step_ms
+                ),
+                None => " – | – |".into(),
+            });
         }
         s.push('\n');
     }

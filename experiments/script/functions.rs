@@ -17,7 +17,7 @@
 //! | `advect(f, velocity, dt)` — `velocity` a cache | `f ∘` the library's departure map ([`departure_point`]), the gridless density of §6.2 |
 //! | `advect(cache, velocity, dt)` | [`Departures::trace`] + [`interpolate_scalar`]: the semi-Lagrangian sweep of `Simulation::advect`, departures shared by the caches of one step |
 //! | `advect(velocity, velocity, dt)` | [`advect_faces`]: the velocity's own step in `Simulation::advect` |
-//! | `advection(region, "quick")` | later `advect`s of caches by [`Quick`] (`prepare` once per velocity and Δt, `advect_scalar` with the ULTIMATE limiter, `advect_faces`): `Advector::advect`'s QUICK step, `run --advection quick`; `"sl"` returns to the notes' semi-Lagrangian `advect` |
+//! | `advection(region, "quick")` | later `advect`s of caches by [`Quick`] (`prepare` once per velocity and Δt, `advect_scalar` with the ULTIMATE limiter, `advect_faces`): `Advector::advect`'s QUICK step, `run --advection quick`; `"maccormack"`, `"bfecc"`: by [`corrected_scalar`] / [`corrected_faces`], `run --advection maccormack\|bfecc`; `"sl"` returns to the notes' semi-Lagrangian `advect` |
 //! | `fftdivfree(velocity, region)` | [`PressureSolver::project`], `Simulation::project` (eq 6.3; cosine transforms in a closed box) |
 //! | `diffuse(velocity, region, nu, dt)` | [`PressureSolver::diffuse`]: the exact viscous step `Simulation::project` takes before the projection (`run --nu`) |
 //! | `scalarcache(region, name)`, `vectorcache(region)` | empty grids ([`ScalarGrid::zeros`], [`FaceGrid::zeros`]) |
@@ -38,8 +38,8 @@ use std::sync::{Arc, Weak};
 use glam::Vec3;
 use rhai::{Array, Engine, FLOAT, INT};
 use smokelab::advection::{
-    advect_faces, departure_point, interpolate_scalar, Backtrace, Departures, Limiter, Quick,
-    QuickOptions,
+    advect_faces, corrected_faces, corrected_scalar, departure_point, interpolate_scalar,
+    Backtrace, Correction, Departures, Limiter, Quick, QuickOptions, Scheme,
 };
 use smokelab::density::probe::cell_averages;
 use smokelab::domain::Domain;
@@ -132,22 +132,33 @@ struct QuickState {
     prepared: Option<(Weak<FaceGrid>, f32)>,
 }
 
+/// How the script's caches advect: the scheme `advection(region, …)` chose.
+enum ScriptScheme {
+    /// The notes' semi-Lagrangian `advect` (the default).
+    SemiLagrangian,
+    /// QUICK finite volumes.
+    Quick(QuickState),
+    /// MacCormack or BFECC on the semi-Lagrangian steps.
+    Corrected(Correction),
+}
+
 thread_local! {
-    /// `None`: caches advect semi-Lagrangian (the notes' `advect`).
-    static QUICK: RefCell<Option<QuickState>> = const { RefCell::new(None) };
+    static SCHEME: RefCell<ScriptScheme> = const { RefCell::new(ScriptScheme::SemiLagrangian) };
 }
 
 /// `f(quick)` with QUICK prepared for `u` over `dt` (`Quick::prepare`, once
 /// per velocity and Δt, as `Advector::advect` does once per step); `None`
-/// when the script advects semi-Lagrangian.
+/// when the script does not advect by QUICK.
 fn with_quick<T>(
     u: &Arc<FaceGrid>,
     dt: f32,
     f: impl FnOnce(&mut Quick) -> T,
 ) -> Option<Fallible<T>> {
-    QUICK.with(|q| {
-        let mut q = q.borrow_mut();
-        let state = q.as_mut()?;
+    SCHEME.with(|s| {
+        let mut s = s.borrow_mut();
+        let ScriptScheme::Quick(state) = &mut *s else {
+            return None;
+        };
         if &state.domain != u.domain() {
             return Some(Err("advect: the velocity is not on the QUICK region".into()));
         }
@@ -164,22 +175,38 @@ fn with_quick<T>(
     })
 }
 
-/// `advection(region, scheme)`: `"sl"` (the notes' semi-Lagrangian
-/// `advect`) or `"quick"` (QUICK finite volumes, `run --advection quick`
-/// with its defaults: CFL sub-steps, the ULTIMATE limiter on densities)
-/// for every later `advect` of a cache.
+/// The correction of MacCormack or BFECC, when the script advects by one.
+fn correction() -> Option<Correction> {
+    SCHEME.with(|s| match &*s.borrow() {
+        ScriptScheme::Corrected(c) => Some(*c),
+        _ => None,
+    })
+}
+
+/// `advection(region, scheme)`: one of `run --advection`'s schemes for
+/// every later `advect` of a cache — `"sl"` (the notes' semi-Lagrangian
+/// `advect`), `"quick"` (QUICK finite volumes with its defaults: CFL
+/// sub-steps, the ULTIMATE limiter on densities; periodic boxes),
+/// `"maccormack"` or `"bfecc"` (the corrected semi-Lagrangian steps).
 fn set_advection(region: Region, scheme: &str) -> Fallible<()> {
-    let state = match scheme {
-        "sl" => None,
-        "quick" if region.kind == BoxKind::Periodic => Some(QuickState {
+    let names = Scheme::ALL.map(Scheme::name).join("\", \"");
+    let Some(parsed) = Scheme::ALL.into_iter().find(|s| s.name() == scheme) else {
+        return Err(format!("advection: `{scheme}`; expected one of \"{names}\"").into());
+    };
+    let state = match parsed {
+        Scheme::Sl => ScriptScheme::SemiLagrangian,
+        Scheme::Quick if region.kind == BoxKind::Periodic => ScriptScheme::Quick(QuickState {
             domain: region.domain,
             quick: Quick::new(region.domain, QuickOptions::default()),
             prepared: None,
         }),
-        "quick" => return Err("advection: QUICK is periodic; the region is a closed box".into()),
-        other => return Err(format!("advection: `{other}`; expected \"sl\" or \"quick\"").into()),
+        Scheme::Quick => {
+            return Err("advection: QUICK is periodic; the region is a closed box".into())
+        }
+        Scheme::MacCormack => ScriptScheme::Corrected(Correction::MacCormack),
+        Scheme::Bfecc => ScriptScheme::Corrected(Correction::Bfecc),
     };
-    QUICK.with(|q| *q.borrow_mut() = state);
+    SCHEME.with(|s| *s.borrow_mut() = state);
     Ok(())
 }
 
@@ -401,7 +428,13 @@ pub fn register(engine: &mut Engine, precision: PressurePrecision) {
                 q.advect_scalar(&c.grid, &mut out, Limiter::Ultimate)
             }) {
                 Some(done) => done.map(|()| out)?,
-                None => advect_cache(&c.grid, &u.0, dt),
+                None => match correction() {
+                    Some(k) => {
+                        corrected_scalar(k, &c.grid, &u.0, dt, Backtrace::default(), &mut out);
+                        out
+                    }
+                    None => advect_cache(&c.grid, &u.0, dt),
+                },
             };
             Ok(ScalarCache {
                 grid: Arc::new(grid),
@@ -419,6 +452,8 @@ pub fn register(engine: &mut Engine, precision: PressurePrecision) {
             let mut out = FaceGrid::zeros(*u.0.domain(), u.0.kind());
             if let Some(done) = with_quick(&u.0, dt, |q| q.advect_faces(&v.0, &mut out)) {
                 done?;
+            } else if let Some(k) = correction() {
+                corrected_faces(k, &v.0, &u.0, dt, Backtrace::default(), &mut out);
             } else {
                 advect_faces(&v.0, &u.0, dt, Backtrace::default(), &mut out);
             }
