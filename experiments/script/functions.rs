@@ -136,8 +136,8 @@ struct QuickState {
 enum ScriptScheme {
     /// The notes' semi-Lagrangian `advect` (the default).
     SemiLagrangian,
-    /// QUICK finite volumes.
-    Quick(QuickState),
+    /// QUICK finite volumes (boxed: its scratch is large).
+    Quick(Box<QuickState>),
     /// MacCormack or BFECC on the semi-Lagrangian steps.
     Corrected(Correction),
 }
@@ -195,11 +195,13 @@ fn set_advection(region: Region, scheme: &str) -> Fallible<()> {
     };
     let state = match parsed {
         Scheme::Sl => ScriptScheme::SemiLagrangian,
-        Scheme::Quick if region.kind == BoxKind::Periodic => ScriptScheme::Quick(QuickState {
-            domain: region.domain,
-            quick: Quick::new(region.domain, QuickOptions::default()),
-            prepared: None,
-        }),
+        Scheme::Quick if region.kind == BoxKind::Periodic => {
+            ScriptScheme::Quick(Box::new(QuickState {
+                domain: region.domain,
+                quick: Quick::new(region.domain, QuickOptions::default()),
+                prepared: None,
+            }))
+        }
         Scheme::Quick => {
             return Err("advection: QUICK is periodic; the region is a closed box".into())
         }
