@@ -217,6 +217,29 @@ fn clap_errors_are_one_line() {
         help.contains("Without a command, `smokelab` runs hot/cold"),
         "{help}"
     );
+    // No rustdoc link syntax (``[`name`]``) leaks from doc comments into
+    // any command's help.
+    let commands: Vec<String> = help
+        .lines()
+        .skip_while(|l| !l.starts_with("Commands:"))
+        .skip(1)
+        .take_while(|l| !l.trim().is_empty())
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .filter(|c| c != "help")
+        .collect();
+    assert!(commands.len() >= 5, "{help}");
+    for command in std::iter::once(None).chain(commands.iter().map(Some)) {
+        let args: Vec<&str> = command
+            .map(String::as_str)
+            .into_iter()
+            .chain(["--help"])
+            .collect();
+        let text = String::from_utf8(sb.ok(&args).stdout).unwrap();
+        assert!(
+            !text.contains("[`"),
+            "{args:?} shows rustdoc syntax:\n{text}"
+        );
+    }
     assert_eq!(std::fs::read_dir(sb.path()).unwrap().count(), 0);
 }
 

@@ -59,7 +59,7 @@ pub enum Backtrace {
     /// Kutta's third-order rule.
     Rk3,
     /// The exact path through the RT0 velocity, cell by cell in closed
-    /// form (Pollock 1988, [`pollock`]): volume-preserving, and it never
+    /// form (Pollock 1988, module `pollock`): volume-preserving, and it never
     /// crosses a face of zero flux. Needs `interpolant = rt0`
     /// (`SolverConfig::validate`); every instruction set runs it as scalar
     /// code.

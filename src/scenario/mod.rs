@@ -33,7 +33,7 @@ pub enum ScenarioKind {
     /// measured against its exact solution.
     TaylorGreen,
     /// The Taylor–Green vortex at Re = 1600 breaking down into turbulence
-    /// (the high-order CFD workshop's case C3.5, [`taylor_green_3d`]).
+    /// (the high-order CFD workshop's case C3.5, module `taylor_green_3d`).
     #[serde(rename = "taylor-green-3d")]
     #[cfg_attr(feature = "clap", value(name = "taylor-green-3d"))]
     TaylorGreen3d,
