@@ -39,16 +39,7 @@ def render(obj, path: Path):
     """A small Cycles render of ``obj`` with its default material, against
     a transparent background; returns (coverage, height of the coverage)."""
     scene = bpy.context.scene
-    low, high = bounds(obj)
-    centre = [(a + b) / 2 for a, b in zip(low, high)]
-    extent = max(b - a for a, b in zip(low, high))
-    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
-    camera.data.type = "ORTHO"
-    camera.data.ortho_scale = 1.2 * extent
-    camera.location = (centre[0], low[1] - 2 * extent, centre[2])
-    camera.rotation_euler = (1.5707963, 0.0, 0.0)  # look along +y, z up in the image
-    scene.collection.objects.link(camera)
-    scene.camera = camera
+    front_camera(*bounds(obj), margin=1.2)
     light = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
     light.rotation_euler = (1.2, 0.0, 0.3)
     scene.collection.objects.link(light)
@@ -66,6 +57,23 @@ def render(obj, path: Path):
     covered = [(n // w) / (h - 1) for n, a in enumerate(alpha) if a > 0.01]
     height = sum(covered) / len(covered) if covered else None
     return len(covered) / (w * h), height
+
+
+def front_camera(low, high, margin):
+    """An orthographic scene camera looking along +y (z up in the image)
+    at the box ``low``…``high``, its view ``margin`` × the box's largest
+    side; returns the camera and that side."""
+    scene = bpy.context.scene
+    centre = [(a + b) / 2 for a, b in zip(low, high)]
+    extent = max(b - a for a, b in zip(low, high))
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    camera.data.type = "ORTHO"
+    camera.data.ortho_scale = margin * extent
+    camera.location = (centre[0], low[1] - 2 * extent, centre[2])
+    camera.rotation_euler = (1.5707963, 0.0, 0.0)
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    return camera, extent
 
 
 def bounds(obj):

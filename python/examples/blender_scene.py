@@ -40,7 +40,7 @@ import bpy
 from mathutils import Vector
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from blender_import import bounds, import_sequence  # noqa: E402
+from blender_import import bounds, front_camera, import_sequence  # noqa: E402
 
 #: The world's colour; a pixel that differs from it shows smoke or obstacle.
 BACKGROUND = (0.05, 0.05, 0.05)
@@ -145,15 +145,7 @@ def render(path: Path, size, samples):
     corners = [c for o in objects for c in bounds(o)]
     low = [min(c[a] for c in corners) for a in range(3)]
     high = [max(c[a] for c in corners) for a in range(3)]
-    centre = [(a + b) / 2 for a, b in zip(low, high)]
-    extent = max(b - a for a, b in zip(low, high))
-    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
-    camera.data.type = "ORTHO"
-    camera.data.ortho_scale = 1.15 * extent
-    camera.location = (centre[0], low[1] - 2 * extent, centre[2])
-    camera.rotation_euler = (1.5707963, 0.0, 0.0)
-    scene.collection.objects.link(camera)
-    scene.camera = camera
+    camera, extent = front_camera(low, high, margin=1.15)
     front_wall_cut(camera, low, extent)
     sun = bpy.data.objects.new("sun", bpy.data.lights.new("sun", "SUN"))
     sun.data.energy = 6.0
